@@ -1,0 +1,116 @@
+"""Model dimensions: how a displacement field on a mesh becomes a 3x3 deformation gradient.
+
+Every kinematics gives the full 3x3 ``F' = dx/dX`` from the reference (the mesh) and the volume
+weight of the mesh measure, so one energy formula serves a 3D solid, a plane-strain section, an
+axisymmetric r–z section and a spherically symmetric radial line.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import ngsolve as ngs
+
+__all__ = ["Kinematics", "Solid3D", "PlaneStrain", "Axisymmetric", "SphericalSymmetric", "kinematics_by_name"]
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Base: ``mesh_dim`` is the dimension of the mesh it runs on, ``components`` names the
+    displacement components in order."""
+
+    name = "base"
+    mesh_dim = 0
+    components: tuple[str, ...] = ()
+
+    def deformation_gradient(self, u) -> ngs.CoefficientFunction:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def volume_weight(self) -> ngs.CoefficientFunction:
+        """Factor turning the mesh measure into reference volume."""
+        return ngs.CF(1.0)
+
+    def check_mesh(self, mesh: ngs.Mesh) -> None:
+        if mesh.dim != self.mesh_dim:
+            raise ValueError(f"kinematics {self.name!r} needs a mesh of dimension {self.mesh_dim}, "
+                             f"got mesh.dim = {mesh.dim}")
+
+    def component_index(self, component: str) -> int:
+        try:
+            return self.components.index(component)
+        except ValueError:
+            raise ValueError(f"component must be one of {self.components} for {self.name!r}, "
+                             f"got {component!r}") from None
+
+
+def _embed(entries) -> ngs.CoefficientFunction:
+    return ngs.CF(tuple(entries), dims=(3, 3))
+
+
+@dataclass(frozen=True)
+class Solid3D(Kinematics):
+    name = "solid3d"
+    mesh_dim = 3
+    components: tuple[str, ...] = ("x", "y", "z")
+
+    def deformation_gradient(self, u):
+        return ngs.Id(3) + ngs.Grad(u)
+
+
+@dataclass(frozen=True)
+class PlaneStrain(Kinematics):
+    """Section in the x–y plane; the out-of-plane stretch stays at its reference value."""
+
+    name = "plane"
+    mesh_dim = 2
+    components: tuple[str, ...] = ("x", "y")
+
+    def deformation_gradient(self, u):
+        G = ngs.Grad(u)
+        return _embed((1 + G[0, 0], G[0, 1], 0, G[1, 0], 1 + G[1, 1], 0, 0, 0, 1))
+
+
+@dataclass(frozen=True)
+class Axisymmetric(Kinematics):
+    """r–z section with ``x = r >= 0``, ``y = z``; torsionless. The hoop stretch is
+    ``1 + u_r / r``; the axis (r = 0) needs ``u_r = 0`` there as a boundary condition."""
+
+    name = "axisymmetric"
+    mesh_dim = 2
+    components: tuple[str, ...] = ("r", "z")
+
+    def deformation_gradient(self, u):
+        G = ngs.Grad(u)
+        return _embed((1 + G[0, 0], G[0, 1], 0, G[1, 0], 1 + G[1, 1], 0, 0, 0, 1 + u[0] / ngs.x))
+
+    def volume_weight(self):
+        return 2 * math.pi * ngs.x
+
+
+@dataclass(frozen=True)
+class SphericalSymmetric(Kinematics):
+    """Radial line ``x = r > 0`` of a spherically symmetric body: a 1D reference model for
+    shells and spheres (``F = diag(1 + u', 1 + u/r, 1 + u/r)``)."""
+
+    name = "spherical"
+    mesh_dim = 1
+    components: tuple[str, ...] = ("r",)
+
+    def deformation_gradient(self, u):
+        G = ngs.Grad(u)
+        hoop = 1 + u[0] / ngs.x
+        return _embed((1 + G[0, 0], 0, 0, 0, hoop, 0, 0, 0, hoop))
+
+    def volume_weight(self):
+        return 4 * math.pi * ngs.x**2
+
+
+_BY_NAME = {k.name: k for k in (Solid3D, PlaneStrain, Axisymmetric, SphericalSymmetric)}
+
+
+def kinematics_by_name(name: str) -> Kinematics:
+    try:
+        return _BY_NAME[name]()
+    except KeyError:
+        raise ValueError(f"kinematics must be one of {sorted(_BY_NAME)}, got {name!r}") from None

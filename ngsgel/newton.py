@@ -1,0 +1,159 @@
+"""Newton's method with an admissible-step line search, for any discretised nonlinear system.
+
+The solver knows nothing of gels. It sees a ``NonlinearSystem``: a state vector it updates in
+place, the free dofs, a residual, a tangent, the prescribed values on the constrained dofs and an
+admissibility test. Prescribed values are reached by the Newton increment itself (its constrained
+part is ``g - x``), so a load step that moves a boundary never creates an inverted start.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+import ngsolve as ngs
+
+__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver"]
+
+
+class NonlinearSystem(Protocol):
+    state: ngs.BaseVector
+    free_mask: np.ndarray
+
+    def residual(self, x: ngs.BaseVector, out: ngs.BaseVector) -> None: ...
+
+    def tangent(self, x: ngs.BaseVector) -> ngs.BaseMatrix: ...
+
+    def prescribed(self, out: ngs.BaseVector) -> None:
+        """Target values on the constrained dofs (entries on free dofs are ignored)."""
+
+    def admissible(self, x: ngs.BaseVector) -> bool: ...
+
+
+@dataclass
+class NewtonResult:
+    converged: bool
+    iterations: int
+    residuals: list[float] = field(default_factory=list)
+    line_search_cuts: int = 0
+    message: str = ""
+
+
+class NewtonError(RuntimeError):
+    """Newton did not converge; ``result`` holds the history. The system's state was restored."""
+
+    def __init__(self, message: str, result: NewtonResult):
+        super().__init__(message)
+        self.result = result
+
+
+class LinearSolver:
+    """Sparse direct solve on the free dofs that keeps its symbolic factorisation between calls
+    as long as the matrix object stays the same."""
+
+    def __init__(self, freedofs: ngs.BitArray, *, inverse: str = "sparsecholesky"):
+        self.freedofs = freedofs
+        self.inverse = inverse
+        self._matrix = None
+        self._inv = None
+
+    def factor(self, matrix: ngs.BaseMatrix):
+        if self._inv is not None and matrix is self._matrix:
+            self._inv.Update()
+        else:
+            self._inv = matrix.Inverse(self.freedofs, inverse=self.inverse)
+            self._matrix = matrix
+        return self._inv
+
+
+def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
+           xtol: float = 1e-13, maxit: int = 30, min_step: float = 2.0**-12,
+           raise_on_failure: bool = True) -> NewtonResult:
+    """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
+
+    Converged when the free residual's norm falls below ``max(atol, rtol * r_max)`` (``r_max``
+    the largest residual seen in this solve) and the prescribed values are met, or when a full
+    step changes no entry by more than ``xtol`` (its scale is the problem's length unit).
+    Every trial point must be admissible with a finite residual; while the prescribed values are
+    met the step is also cut until the residual norm decreases (Armijo). On failure the state is
+    restored and ``NewtonError`` raised (or the result returned with ``converged=False``).
+    """
+    x = system.state
+    free = system.free_mask
+    x0 = x.CreateVector()
+    x0.data = x
+    r = x.CreateVector()
+    dx = x.CreateVector()
+    trial = x.CreateVector()
+    target = x.CreateVector()
+    r_trial = x.CreateVector()
+    result = NewtonResult(converged=False, iterations=0)
+
+    def free_norm(v: ngs.BaseVector) -> float:
+        return float(np.linalg.norm(v.FV().NumPy()[free]))
+
+    def fail(message: str) -> NewtonResult:
+        x.data = x0
+        result.message = message
+        if raise_on_failure:
+            raise NewtonError(message, result)
+        return result
+
+    system.prescribed(target)
+    mismatch = target.FV().NumPy() - x.FV().NumPy()
+    mismatch[free] = 0.0
+    if not system.admissible(x):
+        return fail("the starting state is not admissible")
+    system.residual(x, r)
+    rnorm = free_norm(r)
+    r_max = rnorm
+    result.residuals.append(rnorm)
+    for it in range(maxit + 1):
+        if not math.isfinite(rnorm):
+            return fail(f"residual is not finite at iteration {it}")
+        met = not mismatch.any()
+        if met and rnorm <= max(atol, rtol * r_max):
+            result.converged = True
+            result.iterations = it
+            return result
+        if it == maxit:
+            break
+        K = system.tangent(x)
+        inv = solver.factor(K)
+        # Constrained part of the step: reach the prescribed values; free part: linearised
+        # equilibrium including the coupling to that constrained motion.
+        dx.FV().NumPy()[:] = mismatch
+        trial.data = K * dx
+        trial.data += r
+        dx.data -= inv * trial
+        step_max = float(np.max(np.abs(dx.FV().NumPy()), initial=0.0))
+        alpha = 1.0
+        while True:
+            trial.data = x + alpha * dx
+            if system.admissible(trial):
+                system.residual(trial, r_trial)
+                rn_trial = free_norm(r_trial)
+                if math.isfinite(rn_trial) and (not met or alpha * step_max <= xtol
+                                                or rn_trial <= (1 - 1e-4 * alpha) * rnorm
+                                                or rn_trial <= max(atol, rtol * r_max)):
+                    break
+            alpha *= 0.5
+            result.line_search_cuts += 1
+            if alpha < min_step:
+                return fail(f"line search failed at iteration {it + 1} (residual {rnorm:.3e}): "
+                            "no admissible step decreases the residual")
+        x.data = trial
+        mismatch *= 1.0 - alpha
+        r.data = r_trial
+        rnorm = rn_trial
+        r_max = max(r_max, rnorm)
+        result.residuals.append(rnorm)
+        result.iterations = it + 1
+        if alpha == 1.0 and step_max <= xtol and not mismatch.any():
+            result.converged = True
+            return result
+    return fail(f"no convergence in {maxit} iterations (residual {rnorm:.3e}, target "
+                f"{max(atol, rtol * r_max):.3e})")
+

@@ -1,0 +1,267 @@
+"""Equilibrium of gels and films: materials bound to mesh regions, boundary conditions, loads.
+
+The problem owns the finite element space, the displacement and the energy form. It is a
+``NonlinearSystem`` for ``ngsgel.newton`` and knows nothing of how its load parameters are
+stepped. The computational reference is the mesh: for gels a swollen state ``lam0`` (MODEL.md
+section 2), for films their stress-free bonded state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+import ngsolve as ngs
+
+from .kinematics import Kinematics
+from .materials import FloryRehnerGel, Material, _check_lam0
+from .newton import LinearSolver, NewtonResult, newton
+
+__all__ = ["EquilibriumProblem", "GelBody"]
+
+
+@dataclass
+class _Prescribed:
+    boundary: str
+    component: int
+    value: ngs.CoefficientFunction
+
+
+def _as_cf(value) -> ngs.CoefficientFunction:
+    return value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(value)
+
+
+class GelBody:
+    """Mesh, kinematics, materials per region and the displacement space: what equilibrium and
+    transient problems share. Boundary conditions must be declared before the space is built
+    (the first access to ``space``)."""
+
+    def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
+                 materials: Mapping[str, Material] | Material, lam0: float, order: int = 2):
+        kinematics.check_mesh(mesh)
+        _check_lam0(lam0)
+        if not isinstance(order, int) or order < 1:
+            raise ValueError(f"order must be an integer >= 1, got {order!r}")
+        regions = set(mesh.GetMaterials())
+        if isinstance(materials, Material):
+            materials = {name: materials for name in sorted(regions)}
+        for name in materials:
+            if name not in regions:
+                raise ValueError(f"unknown region {name!r}; the mesh has regions {sorted(regions)}")
+        missing = regions - set(materials)
+        if missing:
+            raise ValueError(f"regions {sorted(missing)} have no material; give one for every region")
+        self.mesh = mesh
+        self.kinematics = kinematics
+        self.materials = dict(materials)
+        self.lam0 = float(lam0)
+        self.order = order
+        self._fixed: dict[int, list[str]] = {i: [] for i in range(len(kinematics.components))}
+        self._prescribed: list[_Prescribed] = []
+        self._space = None
+
+    # ---------------------------------------------------------- boundary conditions
+    def _check_boundary(self, boundary: str) -> None:
+        names = set(self.mesh.GetBoundaries())
+        for part in boundary.split("|"):
+            if part not in names:
+                raise ValueError(f"unknown boundary {part!r}; the mesh has boundaries {sorted(names)}")
+
+    def _components(self, components) -> list[int]:
+        if components is None:
+            return list(range(len(self.kinematics.components)))
+        if isinstance(components, str):
+            components = [components]
+        return [self.kinematics.component_index(c) for c in components]
+
+    def _check_open(self) -> None:
+        if self._space is not None:
+            raise RuntimeError("boundary conditions must be declared before the first solve")
+
+    def fix(self, boundary: str, components=None) -> None:
+        """Zero displacement of the given components (all by default) on ``boundary``."""
+        self._check_open()
+        self._check_boundary(boundary)
+        for i in self._components(components):
+            self._fixed[i].append(boundary)
+
+    def prescribe(self, boundary: str, component: str, value) -> None:
+        """Displacement component ``component`` equals ``value`` (a number or a
+        CoefficientFunction, e.g. ``depth * load`` with a ``Parameter`` load) on ``boundary``."""
+        self._check_open()
+        self._check_boundary(boundary)
+        (i,) = self._components(component)
+        self._fixed[i].append(boundary)
+        self._prescribed.append(_Prescribed(boundary, i, _as_cf(value)))
+
+    # ---------------------------------------------------------------- space, fields
+    @property
+    def space(self) -> ngs.FESpace:
+        if self._space is None:
+            flags = {f"dirichlet{'xyz'[i]}": "|".join(b) for i, b in self._fixed.items() if b}
+            self._space = ngs.VectorH1(self.mesh, order=self.order, **flags)
+        return self._space
+
+    def deformation_gradient(self, u) -> ngs.CoefficientFunction:
+        return self.kinematics.deformation_gradient(u)
+
+    def region_sum(self, integrand_of) -> ngs.SumOfIntegrals:
+        """``sum_region integrand_of(material, region) * weight * dx(region)``."""
+        w = self.kinematics.volume_weight()
+        total = None
+        for name, mat in self.materials.items():
+            term = (w * integrand_of(mat, name)).Compile() * ngs.dx(definedon=self.mesh.Materials(name))
+            total = term if total is None else total + term
+        return total
+
+    def cauchy_stress(self, u, mu) -> ngs.CoefficientFunction:
+        """Cauchy stress (3x3) of the material in each region."""
+        Fp = self.deformation_gradient(u)
+        values = {name: mat.reference_cauchy(Fp, mu, self.lam0) for name, mat in self.materials.items()}
+        return self.mesh.MaterialCF(values)
+
+    def margin_indicator(self, u) -> ngs.CoefficientFunction:
+        """1 where the state is outside a material's admissible set, 0 inside."""
+        Fp = self.deformation_gradient(u)
+        values = {name: ngs.IfPos(mat.margin(Fp, self.lam0), 0.0, 1.0) for name, mat in self.materials.items()}
+        return self.mesh.MaterialCF(values)
+
+
+class EquilibriumProblem(GelBody):
+    """Static equilibrium at a chemical potential ``mu``: a number (held in ``self.mu``, an
+    NGSolve ``Parameter`` to be stepped) or a CoefficientFunction field.
+
+    Example::
+
+        gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+        prob = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel,
+                                  lam0=gel.lam_free(-0.05), mu=-0.05)
+        prob.fix("left", "x"); prob.fix("bottom", "y")
+        prob.mu.Set(0.0); prob.solve()
+    """
+
+    def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
+                 materials: Mapping[str, Material] | Material, lam0: float, mu=0.0, order: int = 2,
+                 inverse: str = "sparsecholesky"):
+        super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order)
+        if isinstance(mu, Real):
+            self._check_mu(float(mu))
+            mu = ngs.Parameter(float(mu))
+        elif not isinstance(mu, ngs.CoefficientFunction):
+            raise ValueError(f"mu must be a number, a Parameter or a CoefficientFunction, got {type(mu).__name__}")
+        self.mu = mu
+        self.inverse = inverse
+        self._tractions: list[tuple[str, ngs.CoefficientFunction]] = []
+        self._form = None
+
+    def _check_mu(self, mu: float) -> None:
+        for mat in self.materials.values():
+            if isinstance(mat, FloryRehnerGel) and isinstance(mat.Nv, Real):
+                mat.lam_free(mu)  # raises ValueError naming mu and its range
+
+    def add_traction(self, boundary: str, traction) -> None:
+        """Dead load per unit reference area (a vector with one entry per component)."""
+        self._check_open()
+        self._check_boundary(boundary)
+        t = _as_cf(tuple(traction) if not isinstance(traction, ngs.CoefficientFunction) else traction)
+        if t.dim != len(self.kinematics.components):
+            raise ValueError(f"traction must have {len(self.kinematics.components)} components, got {t.dim}")
+        self._tractions.append((boundary, t))
+
+    # ------------------------------------------------------------ the discrete problem
+    def _build(self) -> None:
+        V = self.space
+        u = V.TrialFunction()
+        Fp = self.deformation_gradient(u)
+        energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, self.mu, self.lam0))
+        w = self.kinematics.volume_weight()
+        for boundary, t in self._tractions:
+            energy += -(w * ngs.InnerProduct(t, u)) * ngs.ds(definedon=self.mesh.Boundaries(boundary))
+        form = ngs.BilinearForm(V, symmetric=True)
+        form += ngs.Variation(energy)
+        self._form = form
+        self.gfu = ngs.GridFunction(V, name="displacement")
+        self._scratch = ngs.GridFunction(V)
+        self._target = ngs.GridFunction(V)
+        self.free_mask = np.array(list(V.FreeDofs()), dtype=bool)
+        self._solver = LinearSolver(V.FreeDofs(), inverse=self.inverse)
+        self._indicator = self.margin_indicator(self._scratch)
+        self._indicator_order = 2 * self.order + 2
+
+    @property
+    def form(self) -> ngs.BilinearForm:
+        if self._form is None:
+            self._build()
+        return self._form
+
+    @property
+    def displacement(self) -> ngs.GridFunction:
+        self.form
+        return self.gfu
+
+    @property
+    def state(self) -> ngs.BaseVector:
+        return self.displacement.vec
+
+    def residual(self, x, out) -> None:
+        self.form.Apply(x, out)
+
+    def tangent(self, x):
+        self.form.AssembleLinearization(x)
+        return self.form.mat
+
+    def energy(self, x=None) -> float:
+        return self.form.Energy(self.state if x is None else x)
+
+    def prescribed(self, out) -> None:
+        out[:] = 0.0
+        target = self._target
+        for p in self._prescribed:
+            comp = target.components[p.component]
+            if self.mesh.dim == 1:
+                comp.Set(p.value)  # 1D spaces have no boundary evaluator; only the end dof is used
+            else:
+                comp.Set(p.value, ngs.BND, definedon=self.mesh.Boundaries(p.boundary))
+        out.data = target.vec
+
+    def admissible(self, x) -> bool:
+        self._scratch.vec.data = x
+        bad = ngs.Integrate(self._indicator, self.mesh, order=self._indicator_order)
+        return bool(bad == 0.0)
+
+    def solve(self, **newton_options) -> NewtonResult:
+        """Newton at the current parameter values; raises ``NewtonError`` on failure."""
+        self.form
+        return newton(self, self._solver, **newton_options)
+
+    # --------------------------------------------------------------------- outputs
+    def stress(self) -> ngs.CoefficientFunction:
+        return self.cauchy_stress(self.displacement, self.mu)
+
+    def volume_ratio(self) -> ngs.CoefficientFunction:
+        """``J`` relative to the dry state in gel regions (to the bonded state in films)."""
+        det = ngs.Det(self.deformation_gradient(self.displacement))
+        values = {name: (self.lam0**3 if isinstance(mat, FloryRehnerGel) else 1.0) * det
+                  for name, mat in self.materials.items()}
+        return self.mesh.MaterialCF(values)
+
+    def integrate(self, cf, *, region: str | None = None) -> float:
+        """Integral over the reference body (with the kinematics' volume weight)."""
+        where = self.mesh.Materials(region) if region is not None else None
+        return ngs.Integrate(self.kinematics.volume_weight() * cf, self.mesh, definedon=where,
+                             order=2 * self.order + 2)
+
+    def fields(self) -> dict[str, ngs.CoefficientFunction]:
+        """Named fields for VTK output."""
+        sigma = self.stress()
+        return {"displacement": self.displacement, "J": self.volume_ratio(),
+                "sigma_xx": sigma[0, 0], "sigma_yy": sigma[1, 1], "sigma_zz": sigma[2, 2],
+                "sigma_xy": sigma[0, 1]}
+
+    def save_state(self) -> np.ndarray:
+        return self.state.FV().NumPy().copy()
+
+    def restore_state(self, saved: np.ndarray) -> None:
+        self.state.FV().NumPy()[:] = saved
