@@ -98,9 +98,9 @@ class SphericalSymmetric(Kinematics):
     components: tuple[str, ...] = ("r",)
 
     def deformation_gradient(self, u):
-        G = ngs.Grad(u)
-        hoop = 1 + u[0] / ngs.x
-        return _embed((1 + G[0, 0], 0, 0, 0, hoop, 0, 0, 0, hoop))
+        # a scalar space carries the one radial component
+        hoop = 1 + u / ngs.x
+        return _embed((1 + ngs.Grad(u)[0], 0, 0, 0, hoop, 0, 0, 0, hoop))
 
     def volume_weight(self):
         return 4 * math.pi * ngs.x**2

@@ -100,8 +100,11 @@ class GelBody:
     @property
     def space(self) -> ngs.FESpace:
         if self._space is None:
-            flags = {f"dirichlet{'xyz'[i]}": "|".join(b) for i, b in self._fixed.items() if b}
-            self._space = ngs.VectorH1(self.mesh, order=self.order, **flags)
+            if self.mesh.dim == 1:  # one radial component: a scalar space
+                self._space = ngs.H1(self.mesh, order=self.order, dirichlet="|".join(self._fixed[0]))
+            else:
+                flags = {f"dirichlet{'xyz'[i]}": "|".join(b) for i, b in self._fixed.items() if b}
+                self._space = ngs.VectorH1(self.mesh, order=self.order, **flags)
         return self._space
 
     def deformation_gradient(self, u) -> ngs.CoefficientFunction:
@@ -219,11 +222,10 @@ class EquilibriumProblem(GelBody):
         out[:] = 0.0
         target = self._target
         for p in self._prescribed:
-            comp = target.components[p.component]
             if self.mesh.dim == 1:
-                comp.Set(p.value)  # 1D spaces have no boundary evaluator; only the end dof is used
+                target.Set(p.value)  # 1D spaces have no boundary evaluator; only the end dof is used
             else:
-                comp.Set(p.value, ngs.BND, definedon=self.mesh.Boundaries(p.boundary))
+                target.components[p.component].Set(p.value, ngs.BND, definedon=self.mesh.Boundaries(p.boundary))
         out.data = target.vec
 
     def admissible(self, x) -> bool:

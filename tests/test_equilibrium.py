@@ -1,0 +1,289 @@
+"""Equilibrium solver against closed-form swelling, inhomogeneous reference solutions and bad input."""
+
+import math
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere
+from ngsolve.meshes import Make1DMesh, MakeStructured2DMesh, MakeStructured3DMesh
+
+from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, NeoHookeanFilm, NewtonError,
+                    PlaneStrain, Solid3D, SphericalSymmetric, ramp)
+
+
+def unit_square():
+    # boundaries: left x=0, bottom y=0, right, top
+    return MakeStructured2DMesh(nx=2, ny=2)
+
+
+def unit_cube():
+    # MakeStructured3DMesh names: back x=0, left y=0, bottom z=0
+    return MakeStructured3DMesh(nx=2, ny=2, nz=2)
+
+
+SYMMETRY = {"plane": [("left", "x"), ("bottom", "y")], "axisymmetric": [("left", "r"), ("bottom", "z")],
+            "solid3d": [("back", "x"), ("left", "y"), ("bottom", "z")]}
+KINEMATICS = {"plane": (PlaneStrain, unit_square), "axisymmetric": (Axisymmetric, unit_square),
+              "solid3d": (Solid3D, unit_cube)}
+
+
+def swelling_problem(kind, gel, lam0, mu, *, constrain_sides=False, order=2):
+    kin, make_mesh = KINEMATICS[kind]
+    mesh = make_mesh()
+    prob = EquilibriumProblem(mesh, kinematics=kin(), materials=gel, lam0=lam0, mu=mu, order=order)
+    for boundary, comp in SYMMETRY[kind]:
+        prob.fix(boundary, comp)
+    if constrain_sides:  # rollers on the lateral faces: a layer held at its reference in-plane stretch
+        prob.fix("right", "x")
+        if kind == "solid3d":
+            prob.fix("front", "x")
+            prob.fix("right", "y")
+    return prob
+
+
+def corner_stretch(prob, lam0):
+    mesh = prob.mesh
+    point = mesh(1, 1, 1) if mesh.dim == 3 else mesh(1, 1)
+    u = np.array(prob.displacement(point))
+    return lam0 * (1 + u)
+
+
+@pytest.mark.parametrize("kind", ["plane", "axisymmetric", "solid3d"])
+@pytest.mark.parametrize("Nv", [1e-3, 1e-2])
+@pytest.mark.parametrize("chi", [0.1, 0.5])
+@pytest.mark.parametrize("mu0,mu1", [(-0.05, -0.6), (-0.3, -0.01)])  # shrinking, swelling
+def test_free_swelling_matches_closed_form(kind, Nv, chi, mu0, mu1):
+    gel = FloryRehnerGel(Nv=Nv, chi=chi)
+    lam0 = gel.lam_free(mu0)
+    prob = swelling_problem(kind, gel, lam0, mu0)
+    prob.mu.Set(mu1)
+    result = prob.solve()
+    assert result.converged
+    stretch = corner_stretch(prob, lam0)
+    if kind == "plane":
+        # out-of-plane stretch held at lam0: in-plane stretch from sigma_xx = sigma_yy = 0
+        exact = gel.lam_plane_strain(mu1, lam0)
+    else:
+        exact = gel.lam_free(mu1)
+    assert np.allclose(stretch, exact, rtol=1e-9, atol=0), (stretch, exact)
+
+
+@pytest.mark.parametrize("kind", ["plane", "solid3d"])
+@pytest.mark.parametrize("mu1", [-0.5, 0.0])
+def test_constrained_layer_matches_closed_form(kind, mu1):
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = gel.lam_free(-0.1)
+    prob = swelling_problem(kind, gel, lam0, -0.1, constrain_sides=True)
+    ramp(prob, prob.mu, mu1, step=0.05)
+    stretch = corner_stretch(prob, lam0)
+    thickness = stretch[-1]
+    assert thickness == pytest.approx(gel.lam_constrained(mu1, lam0), rel=1e-9)
+    assert np.allclose(stretch[:-1], lam0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["plane", "axisymmetric", "solid3d"])
+def test_swollen_reference_is_stress_free(kind):
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = 2.0
+    prob = swelling_problem(kind, gel, lam0, gel.mu_free(lam0))
+    r = prob.state.CreateVector()
+    prob.residual(prob.state, r)
+    assert np.linalg.norm(r.FV().NumPy()) < 1e-12
+
+
+def test_graded_gel_converges_from_unequilibrated_reference():
+    # Nv varies along x, so the uniformly scaled reference is not stress-free at mu0.
+    Nv = 1e-3 + 9e-3 * ngs.x
+    gel = FloryRehnerGel(Nv=Nv, chi=0.5)
+    lam0 = FloryRehnerGel(Nv=5e-3, chi=0.5).lam_free(-0.1)
+    prob = swelling_problem("plane", gel, lam0, -0.1)
+    r = prob.state.CreateVector()
+    prob.residual(prob.state, r)
+    assert np.linalg.norm(r.FV().NumPy()[prob.free_mask]) > 1e-5
+    result = prob.solve()
+    assert result.converged
+    # the soft side (x = 0) swells more than the stiff side, each between the free swelling of
+    # the softest and the stiffest gel
+    J = prob.volume_ratio()
+    soft, stiff = J(prob.mesh(0.05, 0.5)), J(prob.mesh(0.95, 0.5))
+    bounds = [FloryRehnerGel(Nv=n, chi=0.5).lam_free(-0.1) ** 3 for n in (1e-2, 1e-3)]
+    assert bounds[0] < stiff < soft < bounds[1]
+
+
+def test_step_that_would_dry_the_gel_is_cut_back():
+    # One Newton solve from a well-swollen state to a nearly dry one: full Newton steps
+    # overshoot to J <= 1; the line search must cut them back and still converge exactly.
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = gel.lam_free(-0.01)
+    prob = swelling_problem("plane", gel, lam0, -0.01)
+    prob.mu.Set(-2.0)
+    result = prob.solve(maxit=60)
+    assert result.line_search_cuts > 0
+    assert np.all(np.isfinite(prob.save_state()))
+    assert corner_stretch(prob, lam0)[0] == pytest.approx(gel.lam_plane_strain(-2.0, lam0), rel=1e-9)
+
+
+def test_newton_failure_raises_and_restores_state():
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = gel.lam_free(-0.01)
+    prob = swelling_problem("plane", gel, lam0, -0.01)
+    before = prob.save_state()
+    prob.mu.Set(-2.0)
+    with pytest.raises(NewtonError) as info:
+        prob.solve(maxit=2)
+    assert not info.value.result.converged
+    assert np.array_equal(prob.save_state(), before)
+
+
+def test_ramp_cuts_back_and_regrows():
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = gel.lam_free(-0.01)
+    prob = swelling_problem("plane", gel, lam0, -0.01)
+    result = ramp(prob, prob.mu, -3.0, newton_options={"maxit": 6})
+    assert result.converged and result.cutbacks > 0
+    assert corner_stretch(prob, lam0)[0] == pytest.approx(gel.lam_plane_strain(-3.0, lam0), rel=1e-9)
+
+
+def test_prescribed_displacement_and_film():
+    # A film bonded on top of a gel strip, stretched by a prescribed end displacement: the
+    # prescribed value is met exactly and the film (stiffer) carries most of the force.
+    from netgen.occ import Glue, X, Y
+    gel_face = Rectangle(2, 0.5).Face()
+    film_face = Rectangle(2, 0.05).Face().Move((0, 0.5, 0))
+    gel_face.faces.name, film_face.faces.name = "gel", "film"
+    shape = Glue([gel_face, film_face])
+    shape.edges.Min(X).name = "left"
+    shape.edges.Max(X).name = "right"
+    shape.edges.Min(Y).name = "bottom"
+    mesh = ngs.Mesh(OCCGeometry(shape, dim=2).GenerateMesh(maxh=0.1))
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = gel.lam_free(0.0)
+    film = NeoHookeanFilm(E=100 * gel.youngs_modulus(lam0), nu=0.3)
+    load = ngs.Parameter(0.0)
+    prob = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials={"gel": gel, "film": film},
+                              lam0=lam0, mu=0.0, order=2)
+    prob.fix("left", "x")
+    prob.fix("bottom", "y")
+    prob.prescribe("right", "x", 0.1 * load)
+    result = ramp(prob, load, 1.0, step=0.5)
+    assert result.converged
+    u_end = prob.displacement(mesh(2.0, 0.25))[0]
+    assert u_end == pytest.approx(0.1, abs=1e-12)
+    sigma = prob.stress()
+    assert sigma[0, 0](mesh(1.0, 0.525)) > 20 * sigma[0, 0](mesh(1.0, 0.25))
+
+
+# ------------------------------------------------------------ inhomogeneous: shell on a rigid core
+RI, RO = 1.0, 1.5
+SHELL_GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
+MU0, MU1 = -0.1, -0.02
+
+
+def _name_by_radius(entities, planes):
+    for e in entities:
+        c = e.center
+        for axis, name in planes:
+            if abs(getattr(c, axis)) < 1e-9:
+                e.name = name
+                break
+        else:
+            e.name = "inner" if math.sqrt(c.x**2 + c.y**2 + c.z**2) < (RI + RO) / 2 else "outer"
+
+
+def shell_section_mesh(h, order):
+    face = (Circle((0, 0), RO).Face() - Circle((0, 0), RI).Face()) * Rectangle(2, 2).Face()
+    _name_by_radius(face.edges, [("x", "axis"), ("y", "equator")])
+    face.faces.name = "gel"
+    mesh = ngs.Mesh(OCCGeometry(face, dim=2).GenerateMesh(maxh=h))
+    mesh.Curve(order)
+    return mesh
+
+
+def shell_octant_mesh(h, order):
+    solid = (Sphere(Pnt(0, 0, 0), RO) - Sphere(Pnt(0, 0, 0), RI)) * Box(Pnt(0, 0, 0), Pnt(2, 2, 2))
+    _name_by_radius(solid.faces, [("x", "x0"), ("y", "y0"), ("z", "z0")])
+    solid.solids.name = "gel"
+    mesh = ngs.Mesh(OCCGeometry(solid).GenerateMesh(maxh=h))
+    mesh.Curve(order)
+    return mesh
+
+
+def swollen_shell_volume(mesh, kinematics, order, fixes, fraction):
+    """Current volume of the whole shell, from a part of it that is ``fraction``."""
+    lam0 = SHELL_GEL.lam_free(MU0)
+    prob = EquilibriumProblem(mesh, kinematics=kinematics, materials=SHELL_GEL, lam0=lam0, mu=MU0, order=order)
+    for boundary, comp in fixes:
+        prob.fix(boundary, comp)
+    ramp(prob, prob.mu, MU1, step=0.04)
+    return prob.integrate(prob.volume_ratio()) / lam0**3 / fraction
+
+
+@pytest.fixture(scope="module")
+def shell_reference():
+    mesh = Make1DMesh(64, mapping=lambda t: RI + (RO - RI) * t)
+    return swollen_shell_volume(mesh, SphericalSymmetric(), 6, [("left", None)], 1.0)
+
+
+def test_spherical_reference_is_converged(shell_reference):
+    mesh = Make1DMesh(16, mapping=lambda t: RI + (RO - RI) * t)
+    coarse = swollen_shell_volume(mesh, SphericalSymmetric(), 4, [("left", None)], 1.0)
+    assert coarse == pytest.approx(shell_reference, rel=1e-10)
+    # the bonded shell swells, but less than a free one
+    reference_volume = 4 * math.pi / 3 * (RO**3 - RI**3)
+    free = reference_volume * (SHELL_GEL.lam_free(MU1) / SHELL_GEL.lam_free(MU0)) ** 3
+    assert reference_volume < shell_reference < free
+
+
+AXI_FIXES = [("inner", None), ("axis", "r"), ("equator", "z")]
+
+
+@pytest.mark.parametrize("order,min_rate", [(1, 1.7), (2, 2.8)])
+def test_axisymmetric_shell_converges_under_h_refinement(shell_reference, order, min_rate):
+    errors = []
+    for h in (0.4, 0.2, 0.1):
+        vol = swollen_shell_volume(shell_section_mesh(h, order), Axisymmetric(), order, AXI_FIXES, 0.5)
+        errors.append(abs(vol - shell_reference) / shell_reference)
+    rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    print(f"order {order}: relative volume errors {errors}, rates {rates}")
+    assert np.all(rates > min_rate), rates
+
+
+def test_axisymmetric_shell_converges_under_p_refinement(shell_reference):
+    mesh_h = 0.4
+    errors = [abs(swollen_shell_volume(shell_section_mesh(mesh_h, p), Axisymmetric(), p, AXI_FIXES, 0.5)
+                  - shell_reference) / shell_reference for p in (1, 2, 3)]
+    print(f"p-refinement errors {errors}")
+    assert errors[1] < errors[0] / 20 and errors[2] < errors[1] / 5
+
+
+def test_3d_shell_agrees_with_axisymmetric(shell_reference):
+    fixes = [("inner", None), ("x0", "x"), ("y0", "y"), ("z0", "z")]
+    errors = [abs(swollen_shell_volume(shell_octant_mesh(h, 2), Solid3D(), 2, fixes, 1 / 8)
+                  - shell_reference) / shell_reference for h in (0.5, 0.3)]
+    axi = abs(swollen_shell_volume(shell_section_mesh(0.4, 2), Axisymmetric(), 2, AXI_FIXES, 0.5)
+              - shell_reference) / shell_reference
+    print(f"3D errors {errors}, axisymmetric {axi}")
+    assert errors[1] < errors[0] and errors[0] < 1e-3
+    assert axi < 1e-3
+
+
+# ------------------------------------------------------------------------------ bad input
+def test_bad_problem_input():
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    mesh = unit_square()
+    with pytest.raises(ValueError, match="lam0"):
+        EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=1.0)
+    with pytest.raises(ValueError, match="mu"):
+        EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=2.0, mu=0.05)
+    with pytest.raises(ValueError, match="dimension"):
+        EquilibriumProblem(mesh, kinematics=Solid3D(), materials=gel, lam0=2.0)
+    with pytest.raises(ValueError, match="region"):
+        EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials={"nope": gel}, lam0=2.0)
+    prob = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=2.0)
+    with pytest.raises(ValueError, match="boundary"):
+        prob.fix("nowhere")
+    with pytest.raises(ValueError, match="component"):
+        prob.fix("left", "z")
+    with pytest.raises(ValueError, match="order"):
+        EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=2.0, order=0)
