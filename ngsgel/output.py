@@ -1,0 +1,125 @@
+"""Recorders: everything a run produces goes into one folder, written as it happens.
+
+``RunDirectory`` makes the folder and writes the run's parameters; ``History`` appends one CSV row
+per step (and mirrors it as JSON lines) and flushes, so a stopped run keeps what it computed;
+``VTKSeries`` writes ParaView files of named fields with a ``.pvd`` index over time or load.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import sys
+import time
+from collections.abc import Mapping
+from pathlib import Path
+
+import ngsolve as ngs
+
+__all__ = ["RunDirectory", "History", "VTKSeries", "Progress"]
+
+
+def _jsonable(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if hasattr(value, "item"):  # numpy scalars
+        return value.item()
+    return value
+
+
+class RunDirectory:
+    """One output folder per run: ``params.json`` first, then whatever the run writes."""
+
+    def __init__(self, path: str | Path, *, params: Mapping | None = None):
+        self.path = Path(path)
+        self.path.mkdir(parents=True, exist_ok=True)
+        if params is not None:
+            self.write_json("params.json", params)
+
+    def file(self, name: str) -> Path:
+        return self.path / name
+
+    def write_json(self, name: str, data) -> Path:
+        target = self.file(name)
+        target.write_text(json.dumps(_jsonable(data), indent=2, default=str) + "\n")
+        return target
+
+
+class History:
+    """Step-by-step table: ``append(row)`` writes a CSV line and a JSON line and flushes.
+
+    The columns are fixed by the first row; later rows may leave some out (written empty) but
+    may not add new ones, so the CSV stays rectangular.
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.rows: list[dict] = []
+        self._columns: list[str] | None = None
+        self._csv = open(self.path, "w", newline="")
+        self._jsonl = open(self.path.with_suffix(".jsonl"), "w")
+        self._writer = None
+
+    def append(self, row: Mapping) -> None:
+        row = {k: _jsonable(v) for k, v in row.items()}
+        if self._columns is None:
+            self._columns = list(row)
+            self._writer = csv.DictWriter(self._csv, fieldnames=self._columns)
+            self._writer.writeheader()
+        extra = set(row) - set(self._columns)
+        if extra:
+            raise ValueError(f"row has columns {sorted(extra)} not in the history's columns {self._columns}")
+        self._writer.writerow({k: (json.dumps(v) if isinstance(v, (list, dict)) else v) for k, v in row.items()})
+        self._jsonl.write(json.dumps(row, default=str) + "\n")
+        self._csv.flush()
+        self._jsonl.flush()
+        self.rows.append(row)
+
+    def column(self, name: str) -> list:
+        return [row.get(name) for row in self.rows]
+
+    def close(self) -> None:
+        self._csv.close()
+        self._jsonl.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class VTKSeries:
+    """ParaView output of named fields, one ``.vtu`` per call of ``write(time)``, indexed by a
+    ``.pvd`` file rewritten after each write (readable while the run goes on)."""
+
+    def __init__(self, mesh: ngs.Mesh, fields: Mapping[str, ngs.CoefficientFunction], path: str | Path,
+                 *, subdivision: int = 1):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._vtk = ngs.VTKOutput(mesh, coefs=list(fields.values()), names=list(fields.keys()),
+                                  filename=str(self.path), subdivision=subdivision)
+        self.times: list[float] = []
+
+    def write(self, time: float) -> None:
+        self._vtk.Do(time=time)
+        self.times.append(time)
+
+
+class Progress:
+    """One status line per step on stderr, with elapsed wall time."""
+
+    def __init__(self, label: str, *, stream=None):
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+
+    def __call__(self, message: str) -> None:
+        self.stream.write(f"[{self.label} {time.perf_counter() - self.start:7.1f}s] {message}\n")
+        self.stream.flush()
