@@ -236,7 +236,8 @@ class EquilibriumProblem(GelBody):
     def solve(self, **newton_options) -> NewtonResult:
         """Newton at the current parameter values; raises ``NewtonError`` on failure."""
         self.form
-        return newton(self, self._solver, **newton_options)
+        with ngs.TaskManager():  # threads assembly and factorisation; a no-op when already active
+            return newton(self, self._solver, **newton_options)
 
     # --------------------------------------------------------------------- outputs
     def stress(self) -> ngs.CoefficientFunction:
