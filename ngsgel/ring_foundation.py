@@ -9,18 +9,21 @@ ratio ``nu`` has the plane-strain modulus ``Ef_bar = Ef / (1 - nu^2)`` and the b
 stiffness ``D = Ef_bar t^3 / 12`` (the thesis's ``Ef I``). It carries a uniform compressive
 hoop force ``N`` and rests on radial springs of stiffness ``K`` (pressure per unit radial
 deflection). With the inextensional mode ``w = a cos(n theta)`` the energy balance of the
-classical ring under hydrostatic pressure (Brush & Almroth, *Buckling of Bars, Plates and
-Shells*, ch. 5; Hetenyi, *Beams on Elastic Foundation*) gives
+classical ring under hydrostatic pressure (Timoshenko & Gere, *Theory of Elastic
+Stability*, ch. 7; Brush & Almroth, *Buckling of Bars, Plates and Shells*, ch. 5) with the
+foundation energy ``K w^2 / 2`` added gives
 
     N_cr(n) = D (n^2 - 1) / R^2 + K R^2 / (n^2 - 1),            n = 2, 3, ...
 
 For a constant ``K`` the minimum over real ``m = n^2 - 1`` is at ``m = R^2 sqrt(K/D)``, i.e.
 
-    n_cr = sqrt(1 + R^2 sqrt(K/D)) ~ R (K/D)^(1/4)          (thesis eq. 4-1)
-    N_cr = 2 sqrt(K D),  sigma_cr = N_cr / t = sqrt(Ef_bar K t / 3)   (thesis eq. 4-2),
+    n_cr = sqrt(1 + R^2 sqrt(K/D)) ~ R (K/D)^(1/4)                    (thesis eq. 4-1)
+    N_cr = 2 sqrt(K D),  sigma_cr = N_cr / t = sqrt(Ef_bar K t / 3),
 
-which is the flat-film (Allen) wrinkling result; the ring curvature only enters through the
-integer ``n`` and the ``n^2 - 1``. The critical strain is ``N_cr / (Ef_bar t)``.
+the flat-film (Allen) wrinkling result and, as far as the text export shows, the thesis's
+eq. 4-2; the ring curvature only enters through the integer ``n`` and the ``n^2 - 1``. For
+large ``n`` the loading variants (hydrostatic, centrally directed, constant direction) all
+reduce to this. The critical strain is ``N_cr / (Ef_bar t)``.
 
 Foundation stiffness of an annulus
 ----------------------------------
@@ -32,7 +35,8 @@ displacement into the annulus. The exact solution is Michell's: the Airy functio
     phi = (A r^n + B r^-n + C r^(n+2) + D r^(2-n)) cos(n theta)          (n >= 2)
 
 whose term ``r^m cos(n theta)`` gives ``sigma_rr = (m - n^2) r^(m-2) cos``,
-``sigma_rt = n (m - 1) r^(m-2) sin``, and (Barber, *Elasticity*, table 8.1)
+``sigma_rt = n (m - 1) r^(m-2) sin``, and the displacements (Barber, *Elasticity*, the
+Michell displacement table; checked symbolically against plane-strain Hooke's law)
 
     m = n:      2G u_r = -n r^(n-1) cos,          2G u_t = n r^(n-1) sin
     m = -n:     2G u_r = n r^(-n-1) cos,          2G u_t = n r^(-n-1) sin
@@ -45,8 +49,13 @@ Winkler idealisation) or zero tangential displacement (``"no_slip"``, a film tha
 inextensible along the interface); on the far surface zero traction (``far="free"``, the
 thesis's choice: the other film is ignored) or zero displacement (``far="fixed"``, the stiff
 bound). For ``n = 0`` the Lame terms ``phi = A ln r + B r^2`` (``2G u_r = -A/r +
-(kappa - 1) B r``) give the axisymmetric stiffness the thesis used; for ``loaded="outer"``,
-``far="free"`` it is ``K = E (b^2 - a^2) / ((1 + nu_s) b ((1 - 2 nu_s) b^2 + a^2))``.
+(kappa - 1) B r``) give the mode-independent stiffness the thesis used; for
+``loaded="outer"``, ``far="free"`` it is the thesis's ``K_o = E (b^2 - a^2) / ((1 + nu_s) b
+((1 - 2 nu_s) b^2 + a^2))``, for ``loaded="inner"`` the same with ``a`` and ``b`` swapped in
+the last factor and the leading ``b`` replaced by ``a``. At the gear's wave numbers (10-50)
+the mode-``n`` stiffness is far larger than this Lame value, so the two choices predict
+different tooth counts; pass ``K`` as a callable of ``n`` to :func:`critical_mode` for the
+consistent one.
 
 For ``n -> infinity`` the annulus looks like a half-space under a load of wavenumber
 ``q = n / R_L``; the same Airy analysis in Cartesian coordinates gives
