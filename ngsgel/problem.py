@@ -33,13 +33,21 @@ def _as_cf(value) -> ngs.CoefficientFunction:
     return value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(value)
 
 
+def quadrature_rules(order: int) -> dict:
+    """The standard rule of ``order`` for every element type, for ``dx(intrules=...)``."""
+    return {et: ngs.IntegrationRule(et, order) for et in
+            (ngs.ET.SEGM, ngs.ET.TRIG, ngs.ET.QUAD, ngs.ET.TET, ngs.ET.PRISM, ngs.ET.HEX)}
+
+
 class GelBody:
     """Mesh, kinematics, materials per region and the displacement space: what equilibrium and
     transient problems share. Boundary conditions must be declared before the space is built
-    (the first access to ``space``)."""
+    (the first access to ``space``). ``quadrature_order`` pins the rule of the energy
+    integrals (NGSolve's default otherwise, which depends on the space and the integrand)."""
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
-                 materials: Mapping[str, Material] | Material, lam0: float, order: int = 2):
+                 materials: Mapping[str, Material] | Material, lam0: float, order: int = 2,
+                 quadrature_order: int | None = None):
         kinematics.check_mesh(mesh)
         _check_lam0(lam0)
         if not isinstance(order, int) or order < 1:
@@ -58,6 +66,7 @@ class GelBody:
         self.materials = dict(materials)
         self.lam0 = float(lam0)
         self.order = order
+        self.quadrature_order = quadrature_order
         self._fixed: dict[int, list[str]] = {i: [] for i in range(len(kinematics.components))}
         self._prescribed: list[_Prescribed] = []
         self._space = None
@@ -113,9 +122,10 @@ class GelBody:
     def region_sum(self, integrand_of) -> ngs.SumOfIntegrals:
         """``sum_region integrand_of(material, region) * weight * dx(region)``."""
         w = self.kinematics.volume_weight()
+        rules = {} if self.quadrature_order is None else quadrature_rules(self.quadrature_order)
         total = None
         for name, mat in self.materials.items():
-            term = (w * integrand_of(mat, name)).Compile() * ngs.dx(definedon=self.mesh.Materials(name))
+            term = (w * integrand_of(mat, name)).Compile() * ngs.dx(definedon=self.mesh.Materials(name), intrules=rules)
             total = term if total is None else total + term
         return total
 
@@ -147,8 +157,9 @@ class EquilibriumProblem(GelBody):
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
                  materials: Mapping[str, Material] | Material, lam0: float, mu=0.0, order: int = 2,
-                 inverse: str = "sparsecholesky"):
-        super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order)
+                 inverse: str = "sparsecholesky", quadrature_order: int | None = None):
+        super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order,
+                         quadrature_order=quadrature_order)
         if isinstance(mu, Real):
             self._check_mu(float(mu))
             mu = ngs.Parameter(float(mu))

@@ -1,0 +1,477 @@
+"""Transient swelling: coupled displacement and chemical potential with Suo's kinetics.
+
+Unknowns ``(u, mu)`` on the swollen reference (MODEL.md section 3), backward Euler in time. Per
+step the problem is a ``NonlinearSystem`` for ``ngsgel.newton``:
+
+    u-equation:   d/du  sum_regions int W'(F', mu) dV'                       = 0
+    mu-equation:  -int (J' - J'_n) q + dt (J' - lam0^-3) C'^-1 Grad mu . Grad q dV'
+                  + dt int j_in q dA'                                         = 0
+
+The mu-equation is multiplied by ``-dt``: then the coupling blocks are transposes of each other
+(``d2W'/dF' dmu = -dJ'/dF'``) and the system is well scaled for any ``dt``. The derivative of
+the mobility (and the lumped mass below) make the tangent unsymmetric, hence umfpack.
+
+With P1 chemical potential the mass term ``int (J' - J'_n) q`` is lumped (vertex quadrature).
+With consistent mass even the inf-sup stable pair violates the maximum principle for
+``dt << h^2 / Dc``: after an immersion step mu undershoots by ~30 % of the step next to the
+wetted boundary (Vermeer & Verruijt 1981; Rodrigo et al. 2016); lumped, it stays within bounds.
+The u-equation keeps the energy's quadrature, so steady states are exactly the equilibrium
+problem's (same ``quadrature_order``).
+
+``march`` steps a problem in time with adaptive ``dt`` (geometric start-up, growth on easy
+steps, cut-back on failure) and lands on requested output times; every step yields a
+``StepRecord`` with the solvent balance.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import asdict, dataclass, field
+from numbers import Real
+
+import numpy as np
+import ngsolve as ngs
+
+from .kinematics import Kinematics
+from .materials import FloryRehnerGel, Material
+from .newton import LinearSolver, NewtonError, NewtonResult, newton
+from .problem import EquilibriumProblem, GelBody, quadrature_rules
+
+__all__ = ["TransientProblem", "StepRecord", "TransientResult", "TransientError", "march", "time_ramp"]
+
+
+def _as_cf(value) -> ngs.CoefficientFunction:
+    return value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(value)
+
+
+def _vertex_rules() -> dict:
+    """Quadrature at the vertices: with P1 test functions it lumps the mass term (diagonal in
+    the mu dofs), the classical cure for the overshoot of consistent mass at small dt."""
+    def rule(points, volume):
+        return ngs.IntegrationRule(points=points, weights=[volume / len(points)] * len(points))
+    square = [(0, 0), (1, 0), (1, 1), (0, 1)]
+    return {ngs.ET.SEGM: rule([(0,), (1,)], 1.0),
+            ngs.ET.TRIG: rule([(0, 0), (1, 0), (0, 1)], 0.5),
+            ngs.ET.QUAD: rule(square, 1.0),
+            ngs.ET.TET: rule([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)], 1 / 6),
+            ngs.ET.PRISM: rule([(x, y, z) for z in (0, 1) for x, y in ((0, 0), (1, 0), (0, 1))], 0.5),
+            ngs.ET.HEX: rule([(x, y, z) for z in (0, 1) for x, y in square], 1.0)}
+
+
+def time_ramp(t: ngs.Parameter, *, start: float, end: float, duration: float) -> ngs.CoefficientFunction:
+    """``start`` at ``t = 0`` linearly to ``end`` at ``t = duration``, then held: a smooth
+    alternative to an immersion step."""
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0, got {duration!r}")
+    return start + (end - start) * ngs.IfPos(t - duration, 1.0, t / duration)
+
+
+@dataclass
+class StepRecord:
+    """Diagnostics of one converged time step (solvent amounts per the kinematics' volume).
+
+    ``step_uptake`` is ``int (J'_{n+1} - J'_n) dV'``; ``wetted_inflow`` the solvent that entered
+    through the immersed boundaries during the step (from the mu-equation's residual on their
+    dofs), ``prescribed_inflow`` through prescribed-flux boundaries; ``balance_error`` is
+    ``step_uptake - wetted_inflow - prescribed_inflow``.
+    """
+
+    time: float
+    dt: float
+    iterations: int
+    line_search_cuts: int
+    content: float
+    uptake: float
+    step_uptake: float
+    wetted_inflow: float
+    prescribed_inflow: float
+    exchanged: float
+    balance_error: float
+    cutbacks: int = 0
+    output: bool = False
+
+    @property
+    def wetted_flux(self) -> float:
+        """Mean inflow rate through the immersed boundaries over the step."""
+        return self.wetted_inflow / self.dt
+
+    @property
+    def relative_balance_error(self) -> float:
+        scale = max(abs(self.step_uptake), abs(self.wetted_inflow + self.prescribed_inflow))
+        return abs(self.balance_error) / scale if scale > 0 else 0.0
+
+    def row(self) -> dict:
+        return {**asdict(self), "wetted_flux": self.wetted_flux,
+                "relative_balance_error": self.relative_balance_error}
+
+
+@dataclass
+class TransientResult:
+    completed: bool
+    records: list[StepRecord] = field(default_factory=list)
+    message: str = ""
+
+    @property
+    def steps(self) -> int:
+        return len(self.records)
+
+    @property
+    def cutbacks(self) -> int:
+        return sum(r.cutbacks for r in self.records)
+
+    @property
+    def outputs(self) -> list[StepRecord]:
+        return [r for r in self.records if r.output]
+
+    def column(self, name: str) -> np.ndarray:
+        return np.array([getattr(r, name) for r in self.records])
+
+
+class TransientError(RuntimeError):
+    """``dt`` fell below ``dt_min``; the problem holds the last converged step."""
+
+    def __init__(self, message: str, result: TransientResult):
+        super().__init__(message)
+        self.result = result
+
+
+class TransientProblem(GelBody):
+    """Coupled swelling in time: displacement of order ``order`` and chemical potential of
+    order ``mu_order`` (default ``order - 1``, the inf-sup stable pair; ``mu_order=order``
+    gives equal orders, which oscillate after an immersion step). ``lumped`` (default: when
+    ``mu_order == 1``) lumps the solvent mass, see the module notes. ``inverse`` is the sparse
+    direct solver for the unsymmetric tangent.
+
+    The initial state is the swollen reference at ``mu0`` (a number or a field); ``reset``
+    starts again from there or from an ``EquilibriumProblem``'s state (needed for graded gels,
+    whose uniformly scaled reference is not stress-free). ``t`` is the time ``Parameter`` at the
+    end of the step being solved: boundary values may depend on it.
+
+    Example::
+
+        prob = TransientProblem(mesh, kinematics=PlaneStrain(), materials=gel,
+                                lam0=gel.lam_free(-1.0), mu0=-1.0)
+        prob.fix("bottom"); prob.fix("left|right", "x")
+        prob.immerse("top", 0.0)
+        result = march(prob, 10.0, dt_start=1e-6)
+    """
+
+    def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
+                 materials: Mapping[str, Material] | Material, lam0: float, mu0,
+                 order: int = 2, mu_order: int | None = None, lumped: bool | None = None,
+                 inverse: str = "umfpack"):
+        # The mass term and the content integrals must use the same points for the balance to
+        # close to round-off: pinned, 2 order (pass the same to an EquilibriumProblem to compare).
+        super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order,
+                         quadrature_order=2 * order)
+        for name, mat in self.materials.items():
+            if not isinstance(mat, FloryRehnerGel):
+                raise ValueError(f"region {name!r}: transient runs need a FloryRehnerGel in every region "
+                                 f"(solvent kinetics of other materials is not modelled), got {type(mat).__name__}")
+        mu_order = order - 1 if mu_order is None else mu_order
+        if not isinstance(mu_order, int) or not 1 <= mu_order <= order:
+            raise ValueError(f"mu_order must be an integer in [1, order={order}] (order >= 2 for the "
+                             f"default mu_order = order - 1), got {mu_order!r}")
+        if isinstance(mu0, Real):
+            if not math.isfinite(mu0):
+                raise ValueError(f"mu0 must be finite, got {mu0!r}")
+        elif not isinstance(mu0, ngs.CoefficientFunction):
+            raise ValueError(f"mu0 must be a number or a CoefficientFunction, got {type(mu0).__name__}")
+        self.mu_order = mu_order
+        self.lumped = mu_order == 1 if lumped is None else lumped
+        self.mu0 = _as_cf(mu0)
+        self.inverse = inverse
+        self.t = ngs.Parameter(0.0)
+        self.dt = ngs.Parameter(1.0)
+        self.time = 0.0
+        # exact for the polynomial part of the mass term in every kinematics (3D: det is of
+        # degree 3 (order - 1), times q; axisymmetric: r J' of degree 3 order - 2, times q)
+        self._wetted: list[tuple[str, ngs.CoefficientFunction]] = []
+        self._fluxes: list[tuple[str, ngs.CoefficientFunction]] = []
+        self._form = None
+
+    # ----------------------------------------------------------- boundary conditions
+    def immerse(self, boundary: str, mu_ext=0.0) -> None:
+        """``mu = mu_ext`` on ``boundary`` (in contact with solvent): a number, or a
+        CoefficientFunction of ``self.t`` (a step, ``time_ramp``) and of space."""
+        self._check_open()
+        self._check_boundary(boundary)
+        self._wetted.append((boundary, _as_cf(mu_ext)))
+
+    def add_flux(self, boundary: str, inflow) -> None:
+        """Prescribed solvent inflow per unit reference area and time (normalised units: solvent
+        volume per swollen-reference area, ``L / (L^2/D)``), a number or a CF of ``self.t``.
+        Boundaries neither immersed nor given a flux are impermeable."""
+        self._check_open()
+        self._check_boundary(boundary)
+        self._fluxes.append((boundary, _as_cf(inflow)))
+
+    # ---------------------------------------------------------------- discrete problem
+    def _grad3(self, f) -> ngs.CoefficientFunction:
+        """Reference gradient as a 3-vector in the coordinates of the kinematics' ``F``."""
+        g = ngs.Grad(f)
+        dim = self.mesh.dim
+        return g if dim == 3 else ngs.CF(tuple(g[i] for i in range(dim)) + (0,) * (3 - dim))
+
+    def _content_density(self, Fp) -> ngs.CoefficientFunction:
+        """``w (J' - lam0^-3)``, solvent volume per mesh measure; guarded because the hoop
+        stretch ``u_r / r`` is 0/0 on the axis, where the weight vanishes."""
+        w = self.kinematics.volume_weight()
+        return ngs.IfPos(w, w * (ngs.Det(Fp) - self.lam0**-3), 0.0)
+
+    def _apply(self, functional: ngs.LinearForm) -> float:
+        functional.Assemble()
+        return ngs.InnerProduct(functional.vec, self._one)
+
+    def _build(self) -> None:
+        mesh, lam0, w = self.mesh, self.lam0, self.kinematics.volume_weight()
+        wetted = "|".join(b for b, _ in self._wetted)
+        self.mu_space = ngs.H1(mesh, order=self.mu_order, dirichlet=wetted)
+        X = self.mixed_space = ngs.FESpace([self.space, self.mu_space])
+        (u, mu), (du, q) = X.TnT()
+        self.gf = ngs.GridFunction(X, name="state")
+        self._old = ngs.GridFunction(X)
+        self._scratch = ngs.GridFunction(X)
+        self._target = ngs.GridFunction(X)
+
+        # The energy's mu-derivative is minus the solvent content, -(J' - lam0^-3) q: Variation
+        # gives the u-equation (exactly the equilibrium problem's), the mass term at t_{n+1}
+        # and symmetric coupling blocks at once, and NGSolve linearises an energy far faster
+        # than a hand-written residual. Terms without the unknowns are vectors assembled once
+        # per step with the same quadrature, so J' - J'_n cancels where nothing changed.
+        rules = quadrature_rules(self.quadrature_order)
+        mass_rules = _vertex_rules() if self.lumped else rules
+        Fp = self.deformation_gradient(u)
+        energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, mu, lam0))
+        mobility = (ngs.Det(Fp) - lam0**-3) * ngs.Inv(Fp.trans * Fp)
+        form = ngs.BilinearForm(X)
+        form += ngs.Variation(energy)
+        if self.lumped:  # replace the energy's consistent mass by the lumped one
+            form += (self._content_density(Fp) * q).Compile() * ngs.dx(intrules=rules)
+            form += (-self._content_density(Fp) * q).Compile() * ngs.dx(intrules=mass_rules)
+        form += (-self.dt * w * ngs.InnerProduct(mobility * self._grad3(mu), self._grad3(q))).Compile() * ngs.dx
+        self._form = form
+
+        def functional(density, dx=ngs.dx(intrules=mass_rules)) -> ngs.LinearForm:
+            lf = ngs.LinearForm(X)
+            lf += (density * q).Compile() * dx
+            return lf
+
+        # Solvent amounts are these functionals applied to the constant 1 of the mu space: the
+        # same discrete integrals as in the mu-equation, whichever quadrature it uses.
+        F_old = self.deformation_gradient(self._old.components[0])
+        F_now = self.deformation_gradient(self.gf.components[0])
+        self._old_content = functional(self._content_density(F_old))
+        self._content = functional(self._content_density(F_now))
+        self._step_uptake = functional(self._content_density(F_now) - self._content_density(F_old))
+        self._inflow = ngs.LinearForm(X)  # prescribed solvent inflow during the step
+        for boundary, inflow in self._fluxes:
+            self._inflow += (self.dt * w * inflow * q) * ngs.ds(definedon=mesh.Boundaries(boundary), intrules=rules)
+
+        self.free_mask = np.array(list(X.FreeDofs()), dtype=bool)
+        self._solver = LinearSolver(X.FreeDofs(), inverse=self.inverse)
+        self._indicator = self.margin_indicator(self._scratch.components[0])
+        # Residual entries are stresses and solvent volumes times element volumes, each O(1)
+        # per unit volume: their round-off is ~1e-16 of the body's volume. Near steady state a
+        # step's relative tolerance would ask for less than that.
+        self.residual_floor = 1e-14 * ngs.Integrate(w, mesh)
+        one = ngs.GridFunction(X)
+        one.components[1].Set(1.0)
+        self._one = one.vec
+        # restricted to the immersed dofs: the residual there is minus the solvent that entered
+        self._one_wetted = one.vec.CreateVector()
+        self._one_wetted.FV().NumPy()[:] = np.where(self.free_mask, 0.0, one.vec.FV().NumPy())
+        self.reset()
+
+    @property
+    def form(self) -> ngs.BilinearForm:
+        if self._form is None:
+            self._build()
+        return self._form
+
+    @property
+    def state(self) -> ngs.BaseVector:
+        self.form
+        return self.gf.vec
+
+    @property
+    def displacement(self) -> ngs.GridFunction:
+        self.form
+        return self.gf.components[0]
+
+    @property
+    def chemical_potential(self) -> ngs.GridFunction:
+        self.form
+        return self.gf.components[1]
+
+    # -------------------------------------------------------- NonlinearSystem protocol
+    def residual(self, x, out) -> None:
+        self.form.Apply(x, out)
+        out.data += self._old_content.vec
+        out.data += self._inflow.vec
+
+    def tangent(self, x):
+        self.form.AssembleLinearization(x)
+        return self.form.mat
+
+    def prescribed(self, out) -> None:
+        target = self._target
+        target.vec[:] = 0.0
+        gu, gmu = target.components
+        for p in self._prescribed:
+            self._set_on_boundary(gu if self.mesh.dim == 1 else gu.components[p.component], p.value, p.boundary)
+        for boundary, mu_ext in self._wetted:
+            self._set_on_boundary(gmu, mu_ext, boundary)
+        out.data = target.vec
+
+    def _set_on_boundary(self, gf: ngs.GridFunction, value: ngs.CoefficientFunction, boundary: str) -> None:
+        if self.mesh.dim > 1:
+            gf.Set(value, ngs.BND, definedon=self.mesh.Boundaries(boundary))
+            return
+        # 1D: boundaries are points, whose only dof is the vertex value
+        names = set(boundary.split("|"))
+        for el in gf.space.Elements(ngs.BND):
+            if el.mat in names:
+                (vertex,) = el.vertices
+                gf.vec[el.dofs[0]] = value(self.mesh(*self.mesh[vertex].point))
+
+    def admissible(self, x) -> bool:
+        self._scratch.vec.data = x
+        return bool(ngs.Integrate(self._indicator, self.mesh, order=2 * self.order + 2) == 0.0)
+
+    # ------------------------------------------------------------------- time stepping
+    def reset(self, *, equilibrium: EquilibriumProblem | None = None) -> None:
+        """Back to time 0: the swollen reference at ``mu0``, or ``equilibrium``'s displacement
+        and chemical potential (same mesh, order and displacement conditions)."""
+        self.form
+        gu, gmu = self.gf.components
+        if equilibrium is None:
+            gu.vec[:] = 0.0
+            gmu.Set(self.mu0)
+        else:
+            if equilibrium.mesh is not self.mesh or equilibrium.space.ndof != self.space.ndof:
+                raise ValueError("the equilibrium problem must use the same mesh and displacement order")
+            gu.vec.data = equilibrium.state
+            gmu.Set(equilibrium.mu)
+        self.time = 0.0
+        self.t.Set(0.0)
+        self.initial_content = self._apply(self._content)
+        self.uptake = 0.0
+        self.exchanged = 0.0
+
+    def step_to(self, t_new: float, **newton_options) -> StepRecord:
+        """One backward Euler step from ``self.time`` to ``t_new``. Raises ``NewtonError`` with
+        time and state unchanged when Newton fails (including steps that would dry the gel)."""
+        dt = t_new - self.time
+        if not dt > 0:
+            raise ValueError(f"t_new must be after the current time {self.time}, got {t_new!r}")
+        x = self.state
+        self._old.vec.data = x
+        self.t.Set(t_new)
+        self.dt.Set(dt)
+        self._old_content.Assemble()
+        self._inflow.Assemble()
+        try:
+            result: NewtonResult = newton(self, self._solver, **{"atol": self.residual_floor, **newton_options})
+        except NewtonError:
+            self.t.Set(self.time)
+            raise
+        self.time = t_new
+        r = x.CreateVector()
+        self.residual(x, r)
+        wetted = -ngs.InnerProduct(r, self._one_wetted)
+        prescribed = ngs.InnerProduct(self._inflow.vec, self._one)
+        step_uptake = self._apply(self._step_uptake)
+        self.uptake += step_uptake
+        self.exchanged += wetted + prescribed
+        return StepRecord(time=t_new, dt=dt, iterations=result.iterations, line_search_cuts=result.line_search_cuts,
+                          content=self._apply(self._content), uptake=self.uptake, step_uptake=step_uptake,
+                          wetted_inflow=wetted, prescribed_inflow=prescribed, exchanged=self.exchanged,
+                          balance_error=step_uptake - wetted - prescribed)
+
+    # --------------------------------------------------------------------- outputs
+    def volume_ratio(self) -> ngs.CoefficientFunction:
+        """``J`` relative to the dry state."""
+        return self.lam0**3 * ngs.Det(self.deformation_gradient(self.displacement))
+
+    def stress(self) -> ngs.CoefficientFunction:
+        return self.cauchy_stress(self.displacement, self.chemical_potential)
+
+    def integrate(self, cf) -> float:
+        """Integral over the reference body (with the kinematics' volume weight)."""
+        return ngs.Integrate(self.kinematics.volume_weight() * cf, self.mesh, order=self.quadrature_order)
+
+    def fields(self) -> dict[str, ngs.CoefficientFunction]:
+        """Named fields for VTK output."""
+        sigma = self.stress()
+        return {"displacement": self.displacement, "mu": self.chemical_potential, "J": self.volume_ratio(),
+                "sigma_xx": sigma[0, 0], "sigma_yy": sigma[1, 1], "sigma_zz": sigma[2, 2],
+                "sigma_xy": sigma[0, 1]}
+
+    def save_state(self) -> np.ndarray:
+        return self.state.FV().NumPy().copy()
+
+    def restore_state(self, saved: np.ndarray) -> None:
+        self.state.FV().NumPy()[:] = saved
+
+
+def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: float | None = None,
+          dt_min: float | None = None, dt_over_t: float | None = 0.5, grow: float = 1.5, cut: float = 0.25,
+          easy_iterations: int = 4, output_times: Iterable[float] = (),
+          on_step: Callable[[TransientProblem, StepRecord], None] | None = None,
+          newton_options: dict | None = None) -> TransientResult:
+    """Advance ``problem`` from its current time to ``t_end``.
+
+    The first step is ``dt_start``; later steps grow by ``grow`` after a step that took at
+    most ``easy_iterations`` Newton iterations, stay below ``dt_max`` and below ``dt_over_t``
+    times the time elapsed in this march (geometric start-up: uniform accuracy in the
+    ``sqrt(t)`` regime after a boundary step; ``None`` disables it). A failed step is retried
+    with ``dt * cut``; below ``dt_min`` a ``TransientError`` is raised. Steps end exactly on
+    ``output_times`` and ``t_end`` (records marked ``output``). ``on_step(problem, record)``
+    runs after every converged step.
+    """
+    t0 = problem.time
+    span = t_end - t0
+    if not span > 0:
+        raise ValueError(f"t_end must be after the current time {t0}, got {t_end!r}")
+    dt_max = span if dt_max is None else dt_max
+    dt_min = span * 1e-14 if dt_min is None else dt_min
+    if not 0 < dt_min <= dt_start <= dt_max:
+        raise ValueError(f"need 0 < dt_min <= dt_start <= dt_max, got {dt_min}, {dt_start}, {dt_max}")
+    if not (grow >= 1 and 0 < cut < 1):
+        raise ValueError(f"need grow >= 1 and 0 < cut < 1, got grow={grow}, cut={cut}")
+    stops = sorted({float(s) for s in output_times if t0 < s < t_end} | {float(t_end)})
+    result = TransientResult(completed=False)
+    dt = dt_start
+    cutbacks = 0
+    while stops:
+        stop = stops[0]
+        h = min(dt, dt_max)
+        if dt_over_t is not None and problem.time > t0:
+            h = min(h, dt_over_t * (problem.time - t0))
+        h = max(h, dt_min)
+        landing = stop - problem.time <= h * (1 + 1e-9)
+        if landing:
+            h = stop - problem.time
+        try:
+            record = problem.step_to(stop if landing else problem.time + h, **(newton_options or {}))
+        except NewtonError as err:
+            cutbacks += 1
+            dt = h * cut
+            if dt < dt_min:
+                result.message = f"dt fell below dt_min={dt_min:g} at t={problem.time:g}: {err}"
+                raise TransientError(result.message, result) from err
+            continue
+        if landing:
+            stops.pop(0)
+        record.cutbacks, record.output = cutbacks, landing
+        cutbacks = 0
+        result.records.append(record)
+        if on_step is not None:
+            on_step(problem, record)
+        # a step shortened to land on an output time does not shrink the next one
+        base = max(h, dt) if landing else h
+        dt = base * grow if record.iterations <= easy_iterations else base
+    result.completed = True
+    return result
