@@ -1,15 +1,28 @@
-"""ngsgel: polymer gels on NGSolve — swelling, large deformation, solvent diffusion, instabilities."""
+"""ngsgel: polymer gels on NGSolve — swelling, large deformation, solvent diffusion, instabilities.
 
+Submodules not re-exported here: ``ngsgel.patterns`` (wave, vertex and crease analysis),
+``ngsgel.ring_foundation`` (ring-on-foundation buckling), ``ngsgel.output`` (run folders, histories,
+VTK series) and ``ngsgel.stability`` (spectra, buckling, imperfections; its main entry points are
+re-exported).
+"""
+
+from .continuation import (Checkpoint, ContinuationError, Event, PathPoint, PathResult, Stabilization,
+                           StabilityOptions, follow_path)
 from .kinematics import Axisymmetric, Kinematics, PlaneStrain, Solid3D, SphericalSymmetric, kinematics_by_name
 from .materials import FloryRehnerGel, Material, NeoHookeanFilm
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
 from .problem import EquilibriumProblem, GelBody
+from .stability import linear_buckling, load_rate, negative_count, random_field, seed_imperfection, spectrum
 from .stepping import RampError, RampResult, ramp
+from .transient import StepRecord, TransientError, TransientProblem, TransientResult, march, time_ramp
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Axisymmetric", "EquilibriumProblem", "FloryRehnerGel", "GelBody", "Kinematics", "LinearSolver",
-    "Material", "NeoHookeanFilm", "NewtonError", "NewtonResult", "PlaneStrain", "RampError",
-    "RampResult", "Solid3D", "SphericalSymmetric", "kinematics_by_name", "newton", "ramp",
+    "Axisymmetric", "Checkpoint", "ContinuationError", "EquilibriumProblem", "Event", "FloryRehnerGel",
+    "GelBody", "Kinematics", "LinearSolver", "Material", "NeoHookeanFilm", "NewtonError", "NewtonResult",
+    "PathPoint", "PathResult", "PlaneStrain", "RampError", "RampResult", "Solid3D", "SphericalSymmetric",
+    "Stabilization", "StabilityOptions", "StepRecord", "TransientError", "TransientProblem",
+    "TransientResult", "follow_path", "kinematics_by_name", "linear_buckling", "load_rate", "march",
+    "negative_count", "newton", "ramp", "random_field", "seed_imperfection", "spectrum", "time_ramp",
 ]

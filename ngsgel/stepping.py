@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import ngsolve as ngs
 
-from .newton import NewtonError, NewtonResult
+from .newton import LinearSolver, NewtonError, NewtonResult
 
-__all__ = ["ramp", "RampResult", "RampError"]
+__all__ = ["ramp", "tangent_predictor", "RampResult", "RampError"]
 
 
 @dataclass
@@ -20,6 +20,7 @@ class RampResult:
     newton: list[NewtonResult] = field(default_factory=list)
     cutbacks: int = 0
     message: str = ""
+    stopped: bool = False  # ``on_step`` asked to stop before the target
 
     @property
     def steps(self) -> int:
@@ -36,14 +37,21 @@ class RampError(RuntimeError):
 
 def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None = None,
          min_step: float | None = None, max_step: float | None = None, grow: float = 1.5,
-         easy_iterations: int = 4, on_step: Callable[[float, NewtonResult], None] | None = None,
-         newton_options: dict | None = None) -> RampResult:
+         easy_iterations: int = 4, on_step: Callable[[float, NewtonResult], bool | None] | None = None,
+         newton_options: dict | None = None, tangent_start: bool = True) -> RampResult:
     """Move ``parameter`` to ``target`` through converged equilibria of ``problem``.
 
-    The first guess of each step extrapolates the last two converged states (a secant
-    predictor) when that guess is admissible. A failed step is undone and halved; a step that
-    converged in at most ``easy_iterations`` lets the next one grow by ``grow``. ``on_step`` is
-    called after every converged step (recording, output).
+    The first guess of the first step is the tangent (Euler) predictor from the converged start
+    (with ``tangent_start``; otherwise the start itself); later ones extrapolate the last two
+    converged states (a secant predictor), dropped if not admissible. The tangent predictor
+    saves many iterations when a load applied to the unrelaxed state makes its tangent far from
+    the equilibrium one (a change of ``mu`` acts as a pressure of order ``G`` on a nearly
+    incompressible gel); it is used only if admissible with a residual below the start's, since
+    a far linear prediction can land on a spurious branch (e.g. the body turned over).
+
+    A failed step is undone and halved; a step that converged in at most ``easy_iterations`` lets the next one grow by ``grow``. ``on_step`` is
+    called after every converged step (recording, output); if it returns True the ramp stops
+    there with ``stopped`` set (the problem keeps whatever state ``on_step`` left).
     """
     start = parameter.Get()
     span = target - start
@@ -68,10 +76,14 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
             return result
         h = min(step, max_step, abs(target - value))
         new = target if abs(target - value) <= h * (1 + 1e-12) else value + direction * h
-        parameter.Set(new)
-        if previous is not None:
-            guess = state + (new - value) / (value - previous[0]) * (state - previous[1])
-            problem.restore_state(guess)
+        if previous is None and tangent_start:
+            if not _better_start(problem, tangent_predictor(problem, parameter, new), state):
+                problem.restore_state(state)
+        elif previous is None:
+            parameter.Set(new)
+        else:
+            parameter.Set(new)
+            problem.restore_state(state + (new - value) / (value - previous[0]) * (state - previous[1]))
             if not problem.admissible(problem.state):
                 problem.restore_state(state)
         try:
@@ -89,6 +101,40 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
         previous, current = current, (new, problem.save_state())
         result.values.append(new)
         result.newton.append(newton_result)
-        if on_step is not None:
-            on_step(new, newton_result)
+        if on_step is not None and on_step(new, newton_result):
+            result.stopped = True
+            result.message = f"stopped by on_step at {new:g}"
+            return result
         step = h * grow if newton_result.iterations <= easy_iterations else h
+
+
+def _free_residual_norm(problem) -> float:
+    r = problem.state.CreateVector()
+    problem.residual(problem.state, r)
+    return float(np.linalg.norm(r.FV().NumPy()[problem.free_mask]))
+
+
+def _better_start(problem, guess: np.ndarray, start: np.ndarray) -> bool:
+    """Put ``guess`` in the problem; True if admissible with a smaller free residual than ``start``."""
+    problem.restore_state(start)
+    r_start = _free_residual_norm(problem)
+    problem.restore_state(guess)
+    return bool(problem.admissible(problem.state) and _free_residual_norm(problem) < r_start)
+
+
+def tangent_predictor(problem, parameter: ngs.Parameter, new: float) -> np.ndarray:
+    """The state after one Newton step towards ``parameter = new`` taken with the tangent of the
+    current (converged) state at the current parameter: the Euler predictor, with the
+    prescribed values reached exactly. Leaves ``parameter`` at ``new`` and the state unchanged."""
+    x = problem.state
+    K = problem.tangent(x)
+    freedofs = ngs.BitArray(problem.free_mask.tolist())
+    inv = LinearSolver(freedofs, inverse=getattr(problem, "inverse", "umfpack")).factor(K)
+    parameter.Set(new)
+    r, step, target = x.CreateVector(), x.CreateVector(), x.CreateVector()
+    problem.residual(x, r)
+    problem.prescribed(target)
+    step.FV().NumPy()[:] = np.where(problem.free_mask, 0.0, target.FV().NumPy() - x.FV().NumPy())
+    r.data += K * step
+    step.data -= inv * r
+    return x.FV().NumPy() + step.FV().NumPy()

@@ -1,0 +1,746 @@
+"""Path following in one load parameter, with stability monitoring, events and branch switching.
+
+The driver sees a ``NonlinearSystem`` with ``energy()``, ``save_state()/restore_state()``, its
+``space`` (for the free dofs and modes) and one load parameter: an NGSolve ``Parameter`` acting on
+``mu``, a prescribed displacement or a dead load. Two ways along the path:
+
+- ``method="natural"``: the load parameter is stepped by ``ngsgel.stepping.ramp`` (secant
+  predictor, Newton-iteration based growth, cut-back); optional pseudo-viscous stabilisation
+  lets it cross a snap-through (Abaqus *Stabilize);
+- ``method="arclength"``: pseudo-arclength (Riks) with a secant predictor and a bordered Newton
+  corrector on the hyperplane normal to the predictor, which passes limit points in load and
+  in displacement. The metric is ``|dz|^2 = |dx_free|^2 / scale^2 + dlambda^2`` with ``scale =
+  |dx/dlambda|`` at the start, so arc length is measured in load-parameter units.
+
+The corrector needs ``dR/dlambda``: ``ngsgel.stability.load_rate`` (central difference, exact up
+to round-off for the affine loads of ``EquilibriumProblem``). Every converged state can be
+checked for stability (exact negative count, lowest eigenvalues); a change of the count between
+two steps is located by a secant/bisection search along the step, classified (limit point or
+bifurcation by the projection of the critical mode on ``dR/dlambda``) and, at a bifurcation,
+optionally followed onto the branch of lower energy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import ngsolve as ngs
+from scipy.sparse.linalg import spsolve
+
+from .newton import LinearSolver, NewtonError, NewtonResult, newton
+from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
+                        spectrum)
+from .stepping import RampError, ramp
+
+__all__ = ["StabilityOptions", "Stabilization", "PathPoint", "Event", "Checkpoint", "PathResult",
+           "ContinuationError", "follow_path"]
+
+Method = Literal["natural", "arclength"]
+
+
+@dataclass(frozen=True)
+class StabilityOptions:
+    """Stability monitoring of every converged state.
+
+    ``eigenvalues``: how many of the lowest to compute and record. ``locate``: find the critical
+    parameter of a change of the negative count to ``tol`` (load-parameter units).
+    ``bifurcation_threshold``: a critical mode whose normalised projection on ``dR/dlambda`` is
+    below it marks a bifurcation, otherwise a limit point. ``switch``: at a bifurcation, leave the
+    path along ``+-`` the critical mode with root-mean-square amplitude ``amplitude * length`` and
+    follow the candidate with fewer negative eigenvalues, then lower energy than the original
+    branch at the same load.
+    """
+
+    eigenvalues: int = 3
+    locate: bool = True
+    tol: float = 1e-4
+    bifurcation_threshold: float = 1e-2
+    switch: bool = False
+    amplitude: float = 1e-2
+    length: float = 1.0
+    max_locate_iterations: int = 60
+
+
+@dataclass(frozen=True)
+class Stabilization:
+    """Pseudo-viscous damping ``c M (x - x_n) / |lambda - lambda_n|`` (``M`` the L2 Gram matrix of
+    the displacement) for natural-parameter runs. ``c`` is set after the first (undamped) step so
+    that it would dissipate ``initial_fraction`` of the stored energy (Abaqus' default 2e-4), and
+    is reduced whenever the dissipated energy would exceed ``cap`` times the stored energy.
+    ``stored_energy`` defaults to the energy with the load parameter set to zero (the strain energy
+    under dead loads or prescribed displacements, the Helmholtz free energy under ``mu``), counted
+    from the start of the run."""
+
+    cap: float = 0.05
+    initial_fraction: float = 2e-4
+    stored_energy: Callable[[], float] | None = None
+
+
+@dataclass
+class PathPoint:
+    step: int
+    parameter: float
+    energy: float
+    iterations: int
+    qoi: dict[str, float] = field(default_factory=dict)
+    eigenvalues: tuple[float, ...] = ()
+    negative: int | None = None
+    events: tuple[str, ...] = ()
+    dissipated_fraction: float | None = None
+    state: np.ndarray | None = None
+
+    @property
+    def stable(self) -> bool | None:
+        return None if self.negative is None else self.negative == 0
+
+
+@dataclass
+class Event:
+    """``kind``: "limit point", "bifurcation", "branch switch" or "stability change" (not
+    located). ``parameter_error`` bounds the error of ``parameter`` (spread of the load parameter
+    over the final bracket); ``load_projection`` is the classification measure."""
+
+    kind: str
+    step: int
+    parameter: float
+    negative_before: int
+    negative_after: int
+    energy: float
+    eigenvalue: float | None = None
+    load_projection: float | None = None
+    parameter_error: float | None = None
+    mode: ngs.GridFunction | None = None
+    state: np.ndarray | None = None
+    details: dict = field(default_factory=dict)
+
+
+@dataclass
+class Checkpoint:
+    """What a run needs to go on: the last two states on the path and the step control."""
+
+    method: str
+    parameter: float
+    state: np.ndarray
+    previous_parameter: float | None
+    previous_state: np.ndarray | None
+    step: float
+    scale: float | None
+
+    def save(self, path: str | Path) -> None:
+        np.savez(path, method=self.method, parameter=self.parameter, state=self.state,
+                 previous_parameter=np.nan if self.previous_parameter is None else self.previous_parameter,
+                 previous_state=self.state * np.nan if self.previous_state is None else self.previous_state,
+                 step=self.step, scale=np.nan if self.scale is None else self.scale)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Checkpoint:
+        data = np.load(path)
+        prev = float(data["previous_parameter"])
+        scale = float(data["scale"])
+        return cls(method=str(data["method"]), parameter=float(data["parameter"]), state=data["state"],
+                   previous_parameter=None if math.isnan(prev) else prev,
+                   previous_state=None if math.isnan(prev) else data["previous_state"],
+                   step=float(data["step"]), scale=None if math.isnan(scale) else scale)
+
+
+@dataclass
+class PathResult:
+    points: list[PathPoint]
+    events: list[Event]
+    stop_reason: str
+    checkpoint: Checkpoint
+
+    def column(self, name: str) -> np.ndarray:
+        """``parameter``, ``energy``, ``negative``, ``iterations``, ``dissipated_fraction`` or a
+        quantity of interest, over all points."""
+        if name in ("parameter", "energy", "negative", "iterations", "dissipated_fraction"):
+            return np.array([getattr(p, name) for p in self.points], dtype=float)
+        return np.array([p.qoi[name] for p in self.points])
+
+
+class ContinuationError(RuntimeError):
+    """The step fell below ``min_step``; ``result`` holds the path up to the last converged state
+    (which the problem holds)."""
+
+    def __init__(self, message: str, result: PathResult):
+        super().__init__(message)
+        self.result = result
+
+
+# --------------------------------------------------------------------------- corrector
+class _Corrector:
+    """Newton on ``R(x, lambda) = 0`` plus one linear constraint
+    ``c_x . (x - o_x) + c_l (lambda - o_l) = s`` (free dofs), by bordering: two solves with the
+    tangent per iteration. Constrained dofs follow their prescribed values at every iterate."""
+
+    def __init__(self, problem, parameter: ngs.Parameter, *, rtol: float = 1e-10, atol: float = 0.0,
+                 xtol: float = 1e-13, maxit: int = 20, min_step: float = 2.0**-10):
+        self.problem = problem
+        self.parameter = parameter
+        self.free = problem.free_mask
+        self.solver = LinearSolver(problem.space.FreeDofs(), inverse=problem.inverse)
+        self.rtol, self.atol, self.xtol, self.maxit, self.min_step = rtol, atol, xtol, maxit, min_step
+
+    def _set(self, xf: np.ndarray, lam: float) -> bool:
+        """Put ``(x_free, lambda)`` into the problem; False if inadmissible."""
+        self.parameter.Set(lam)
+        target = self.problem.state.CreateVector()
+        self.problem.prescribed(target)
+        x = self.problem.state.FV().NumPy()
+        x[self.free] = xf
+        x[~self.free] = target.FV().NumPy()[~self.free]
+        return self.problem.admissible(self.problem.state)
+
+    def _residual(self) -> np.ndarray:
+        r = self.problem.state.CreateVector()
+        self.problem.residual(self.problem.state, r)
+        return r.FV().NumPy()[self.free].copy()
+
+    def solve(self, guess: tuple[np.ndarray, float], origin: tuple[np.ndarray, float],
+              normal: tuple[np.ndarray, float], s: float) -> NewtonResult:
+        """Converge from ``guess`` (full state, lambda); ``origin`` and ``normal`` as free-dof
+        vectors. On failure the problem's state and parameter are restored, NewtonError raised."""
+        problem, free = self.problem, self.free
+        saved, saved_lam = problem.save_state(), self.parameter.Get()
+        cx, cl = normal
+        ox, ol = origin
+        result = NewtonResult(converged=False, iterations=0)
+
+        def fail(message: str) -> NewtonError:
+            problem.restore_state(saved)
+            self.parameter.Set(saved_lam)
+            result.message = message
+            return NewtonError(message, result)
+
+        xf, lam = guess[0][free].copy(), guess[1]
+        if not self._set(xf, lam):
+            raise fail("the predictor is not admissible")
+        r = self._residual()
+        rnorm = r_max = float(np.linalg.norm(r))
+        result.residuals.append(rnorm)
+        a = problem.state.CreateVector()
+        rhs = problem.state.CreateVector()
+        for it in range(self.maxit + 1):
+            if not math.isfinite(rnorm):
+                raise fail(f"residual is not finite at iteration {it}")
+            if rnorm <= max(self.atol, self.rtol * r_max):
+                result.converged, result.iterations = True, it
+                return result
+            if it == self.maxit:
+                break
+            K = problem.tangent(problem.state)
+            inv = self.solver.factor(K)
+            rate = load_rate(problem, self.parameter, K=K)
+            solutions = []
+            for vec in (r, rate.residual):
+                rhs.FV().NumPy()[:] = 0.0
+                rhs.FV().NumPy()[free] = vec
+                a.data = inv * rhs
+                solutions.append(a.FV().NumPy()[free].copy())
+            sa, sb = solutions
+            N = cx @ (xf - ox) + cl * (lam - ol) - s
+            dlam = (cx @ sa - N) / (cl - cx @ sb)
+            dx = -sa - sb * dlam
+            step_max = max(float(np.max(np.abs(dx), initial=0.0)), abs(dlam))
+            alpha = 1.0
+            while not self._set(xf + alpha * dx, lam + alpha * dlam) or not math.isfinite(
+                    float(np.linalg.norm(r_trial := self._residual()))):
+                alpha *= 0.5
+                result.line_search_cuts += 1
+                if alpha < self.min_step:
+                    raise fail(f"no admissible step at iteration {it + 1} (residual {rnorm:.3e})")
+            xf, lam, r = xf + alpha * dx, lam + alpha * dlam, r_trial
+            rnorm = float(np.linalg.norm(r))
+            r_max = max(r_max, rnorm)
+            result.residuals.append(rnorm)
+            result.iterations = it + 1
+            if alpha == 1.0 and step_max <= self.xtol:
+                result.converged = True
+                return result
+        raise fail(f"no convergence in {self.maxit} iterations (residual {rnorm:.3e})")
+
+
+# ------------------------------------------------------------------------ damping
+class _Damped:
+    """The problem plus pseudo-viscous damping, as a NonlinearSystem that ``ramp`` can drive."""
+
+    def __init__(self, problem, parameter: ngs.Parameter, options: Stabilization):
+        self.problem = problem
+        self.parameter = parameter
+        self.options = options
+        self.free_mask = problem.free_mask
+        self.mass = mass_matrix(problem)
+        if self.mass.nze != problem.tangent(problem.state).nze:
+            raise RuntimeError("the mass matrix and the tangent have different sparsity; cannot add them")
+        self.solver = LinearSolver(problem.space.FreeDofs(), inverse=problem.inverse)
+        self.coefficient: float | None = None
+        self.x_n = problem.save_state()
+        self.lam_n = parameter.Get()
+        self.stored_start = self._stored()
+        self.dissipated = 0.0
+        self.fraction = 0.0
+        self._dx = problem.state.CreateVector()
+        self._Mdx = problem.state.CreateVector()
+
+    def _stored(self) -> float:
+        if self.options.stored_energy is not None:
+            return self.options.stored_energy()
+        lam = self.parameter.Get()
+        self.parameter.Set(0.0)
+        try:
+            return self.problem.energy()
+        finally:
+            self.parameter.Set(lam)
+
+    def _rate_coefficient(self) -> float:
+        return (self.coefficient or 0.0) / abs(self.parameter.Get() - self.lam_n)
+
+    @property
+    def state(self):
+        return self.problem.state
+
+    def residual(self, x, out) -> None:
+        self.problem.residual(x, out)
+        self._dx.FV().NumPy()[:] = x.FV().NumPy() - self.x_n
+        self._Mdx.data = self.mass * self._dx
+        out.data += self._rate_coefficient() * self._Mdx
+
+    def tangent(self, x):
+        K = self.problem.tangent(x)
+        K.AsVector().data += self._rate_coefficient() * self.mass.AsVector()
+        return K
+
+    def prescribed(self, out) -> None:
+        self.problem.prescribed(out)
+
+    def admissible(self, x) -> bool:
+        return self.problem.admissible(x)
+
+    def save_state(self) -> np.ndarray:
+        return self.problem.save_state()
+
+    def restore_state(self, saved: np.ndarray) -> None:
+        self.problem.restore_state(saved)
+
+    def _work(self, dx: np.ndarray) -> float:
+        """``dx_f . (M dx)_f``."""
+        self._dx.FV().NumPy()[:] = dx
+        self._Mdx.data = self.mass * self._dx
+        return float(dx[self.free_mask] @ self._Mdx.FV().NumPy()[self.free_mask])
+
+    def solve(self, **newton_options) -> NewtonResult:
+        guess = self.problem.save_state()
+        while True:
+            result = newton(self, self.solver, **newton_options)
+            dx = self.problem.save_state() - self.x_n
+            h = abs(self.parameter.Get() - self.lam_n)
+            stored = abs(self._stored() - self.stored_start)
+            if self.coefficient is None:
+                self.coefficient = self.options.initial_fraction * stored * h / self._work(dx)
+                step_dissipation = 0.0
+            else:
+                step_dissipation = self.coefficient / h * self._work(dx)
+            fraction = (self.dissipated + step_dissipation) / stored
+            if fraction <= self.options.cap:
+                break
+            # too much damping for the cap: less of it, same step again
+            self.coefficient *= 0.5 * self.options.cap / fraction
+            self.problem.restore_state(guess)
+        self.dissipated += step_dissipation
+        self.fraction = fraction
+        self.x_n = self.problem.save_state()
+        self.lam_n = self.parameter.Get()
+        return result
+
+
+# ------------------------------------------------------------------------ the driver
+@dataclass
+class _Converged:
+    """A converged state on the path with its stability."""
+
+    parameter: float
+    state: np.ndarray
+    spectrum: Spectrum | None
+    iterations: int = 0
+
+
+class _Driver:
+    def __init__(self, problem, parameter, *, stability: StabilityOptions | None,
+                 qoi: Mapping[str, Callable[[], float]], history, vtk, vtk_every: int,
+                 progress: Callable[[str], None] | None, keep_states: bool, stop, max_steps: int,
+                 locate: bool, newton_options: dict):
+        self.problem = problem
+        self.parameter = parameter
+        self.stability = stability
+        self.qoi = dict(qoi)
+        self.history = history
+        self.vtk = vtk
+        self.vtk_every = vtk_every
+        self.progress = progress
+        self.keep_states = keep_states
+        self.stop = stop
+        self.max_steps = max_steps
+        self.newton_options = newton_options
+        self.locate_events = locate and stability is not None and stability.locate
+        self.points: list[PathPoint] = []
+        self.events: list[Event] = []
+        self.steps = 0
+        self.stop_reason = ""
+        self._pending: tuple[str, ...] = ()  # events of the next recorded point
+        self._mass = free_matrix(mass_matrix(problem), problem.free_mask) if stability else None
+
+    # ------------------------------------------------------------------ stability
+    def spectrum(self) -> Spectrum | None:
+        if self.stability is None:
+            return None
+        K = free_matrix(self.problem.tangent(self.problem.state), self.problem.free_mask)
+        return spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass)
+
+    def converged(self, iterations: int = 0) -> _Converged:
+        return _Converged(self.parameter.Get(), self.problem.save_state(), self.spectrum(), iterations)
+
+    def _goto(self, point: _Converged) -> None:
+        self.problem.restore_state(point.state)
+        self.parameter.Set(point.parameter)
+
+    # ------------------------------------------------------------------ records
+    def record(self, point: _Converged, *, events: tuple[str, ...] = (), dissipated: float | None = None) -> PathPoint:
+        """Record the problem's current state (which is ``point``)."""
+        spec = point.spectrum
+        events, self._pending = self._pending + events, ()
+        pp = PathPoint(step=self.steps, parameter=point.parameter, energy=self.problem.energy(),
+                       iterations=point.iterations, qoi={k: float(f()) for k, f in self.qoi.items()},
+                       eigenvalues=tuple(float(v) for v in spec.eigenvalues) if spec else (),
+                       negative=spec.negative if spec else None, events=events,
+                       dissipated_fraction=dissipated, state=point.state if self.keep_states else None)
+        self.points.append(pp)
+        if self.history is not None:
+            row = {"step": pp.step, "parameter": pp.parameter, **pp.qoi, "energy": pp.energy,
+                   "iterations": pp.iterations, "negative": pp.negative}
+            if self.stability is not None:
+                row.update({f"eig{i}": (pp.eigenvalues[i] if i < len(pp.eigenvalues) else None)
+                            for i in range(self.stability.eigenvalues)})
+            row.update({"events": ";".join(events), "dissipated_fraction": dissipated})
+            self.history.append(row)
+        if self.vtk is not None and (events or pp.step % self.vtk_every == 0):
+            self.vtk.write(float(len(self.vtk.times)))
+        if self.progress is not None:
+            self.progress(f"step {pp.step}: parameter {pp.parameter:.6g}, iterations {pp.iterations}"
+                          + (f", negative {pp.negative}" if pp.negative is not None else "")
+                          + (f", events {', '.join(events)}" if events else ""))
+        return pp
+
+    def should_stop(self, pp: PathPoint) -> bool:
+        if self.stop is not None and self.stop(pp):
+            self.stop_reason = "criterion"
+        elif self.steps >= self.max_steps:
+            self.stop_reason = "max_steps"
+        return bool(self.stop_reason)
+
+    # ------------------------------------------------------------------ events
+    def check(self, a: _Converged, b: _Converged, segment: Callable[[float], None],
+              switch: Callable[[_Converged, _Converged], _Converged]) -> tuple[list[tuple[_Converged, str]], bool]:
+        """Events between ``a`` and the problem's current state ``b``. Returns the located points
+        to record before the next one (with their event names) and whether the path left ``b``
+        for a new branch (the problem then holds the new branch's first point)."""
+        if a.spectrum is None or b.spectrum is None or a.spectrum.negative == b.spectrum.negative:
+            return [], False
+        before, after = a.spectrum.negative, b.spectrum.negative
+        if not self.locate_events:
+            self.events.append(Event(kind="stability change", step=self.steps, parameter=b.parameter,
+                                     negative_before=before, negative_after=after,
+                                     energy=self.problem.energy()))
+            self._pending = ("stability change",)
+            return [], False
+        critical, error = self._locate(a, b, segment)
+        index = min(before, after)
+        eigenvalue, phi = critical.spectrum.crossing(index)
+        rate = load_rate(self.problem, self.parameter)
+        projection = load_projection(phi, rate)
+        kind = "bifurcation" if projection < self.stability.bifurcation_threshold else "limit point"
+        event = Event(kind=kind, step=self.steps, parameter=critical.parameter, negative_before=before,
+                      negative_after=after, energy=self.problem.energy(), eigenvalue=eigenvalue,
+                      load_projection=projection, parameter_error=error,
+                      mode=mode_function(self.problem, phi, name=f"critical_mode_{len(self.events)}"),
+                      state=critical.state)
+        self.events.append(event)
+        located = [(critical, kind)]
+        if kind == "bifurcation" and self.stability.switch:
+            located.append((switch(a, critical), "branch switch"))
+            return located, True
+        self._goto(b)
+        return located, False
+
+    def _locate(self, a: _Converged, b: _Converged, segment: Callable[[float], None]) -> tuple[_Converged, float]:
+        """Secant (Illinois) on the crossing eigenvalue along the step, bracketed by the exact
+        negative count, until the load parameter over the bracket varies by less than ``tol``."""
+        index = min(a.spectrum.negative, b.spectrum.negative)
+        lo = (0.0, a.spectrum.crossing(index)[0], a.parameter)
+        hi = (1.0, b.spectrum.crossing(index)[0], b.parameter)
+        kept = None  # which end stayed twice in a row (Illinois halves its value)
+        for _ in range(self.stability.max_locate_iterations):
+            s = lo[0] - lo[1] * (hi[0] - lo[0]) / (hi[1] - lo[1])
+            # keep the secant point off the ends of the bracket so that both ends keep moving
+            width = hi[0] - lo[0]
+            s = min(max(s, lo[0] + 0.05 * width), hi[0] - 0.05 * width)
+            segment(s)
+            point = self.converged()
+            new = (s, point.spectrum.crossing(index)[0], point.parameter)
+            spread = max(lo[2], hi[2], new[2]) - min(lo[2], hi[2], new[2])
+            if point.spectrum.negative == a.spectrum.negative:
+                lo, hi = new, (hi if kept != "hi" else (hi[0], hi[1] / 2, hi[2]))
+                kept = "hi"
+            else:
+                hi, lo = new, (lo if kept != "lo" else (lo[0], lo[1] / 2, lo[2]))
+                kept = "lo"
+            if spread <= self.stability.tol:
+                return point, spread
+        raise RuntimeError(f"critical point between parameters {a.parameter:g} and {b.parameter:g} not "
+                           f"located to {self.stability.tol:g} in {self.stability.max_locate_iterations} iterations")
+
+    def branch_switch(self, a: _Converged, critical: _Converged, converge: Callable[[np.ndarray, float, np.ndarray, float], NewtonResult]) -> _Converged:
+        """Leave ``critical`` along ``+-`` its mode; keep the candidate with fewer negative
+        eigenvalues, then the lower energy relative to the original branch at its load (that
+        branch re-converged from the stable side ``a``)."""
+        opts = self.stability
+        index = min(a.spectrum.negative, critical.spectrum.negative)
+        phi = critical.spectrum.crossing(index)[1]
+        free = self.problem.free_mask
+        amplitude = opts.amplitude * opts.length
+        candidates = []
+        for sign in (1.0, -1.0):
+            guess = critical.state.copy()
+            guess[free] += sign * amplitude * phi
+            newton_result = converge(guess, critical.parameter, phi / (phi @ phi), sign * amplitude)
+            point = self.converged(newton_result.iterations)
+            energy = self.problem.energy()
+            self._goto(a)
+            self.parameter.Set(point.parameter)
+            self.problem.solve(**self.newton_options)
+            original = self.problem.energy()
+            candidates.append((point.spectrum.negative if point.spectrum else 0, energy - original, sign, point, energy, original))
+        negative, gain, sign, chosen, energy, original = min(candidates, key=lambda c: c[:2])
+        self._goto(chosen)
+        self.events.append(Event(kind="branch switch", step=self.steps, parameter=chosen.parameter,
+                                 negative_before=critical.spectrum.negative, negative_after=negative,
+                                 energy=energy, state=chosen.state,
+                                 details={"sign": sign, "energy_original_branch": original,
+                                          "energy_gain": gain,
+                                          "candidates": [(c[2], c[0], c[1]) for c in candidates]}))
+        return chosen
+
+    def checkpoint(self, method: str, current: _Converged, previous: _Converged | None, step: float,
+                   scale: float | None) -> Checkpoint:
+        return Checkpoint(method=method, parameter=current.parameter, state=current.state,
+                          previous_parameter=None if previous is None else previous.parameter,
+                          previous_state=None if previous is None else previous.state, step=step, scale=scale)
+
+
+def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclength", step: float,
+                target: float | None = None, min_step: float | None = None, max_step: float | None = None,
+                max_steps: int = 200, direction: int = 1, stop: Callable[[PathPoint], bool] | None = None,
+                qoi: Mapping[str, Callable[[], float]] | None = None,
+                stability: StabilityOptions | None = None, stabilization: Stabilization | None = None,
+                history=None, vtk=None, vtk_every: int = 1, progress: Callable[[str], None] | None = None,
+                restart: Checkpoint | None = None, keep_states: bool = False, grow: float = 1.5,
+                easy_iterations: int = 4, hard_iterations: int = 8,
+                newton_options: dict | None = None) -> PathResult:
+    """Follow the equilibrium path of ``problem`` in ``parameter`` from its current state
+    (equilibrated first) or from ``restart``.
+
+    ``step`` is the first increment of the load parameter (natural) or of arc length (in the
+    same units); ``min_step``/``max_step`` bound it (defaults ``step * 1e-6`` and ``step * 10``).
+    Stops at ``target`` (a natural run ends exactly there; an arclength run stops where the path
+    first reaches it, re-converged at exactly that load), when ``stop(point)`` is true, or after
+    ``max_steps`` steps. ``direction`` (+-1) is the initial sign of the load increment of an
+    arclength run. ``qoi``: named callables evaluated at every point. ``history``: an
+    ``ngsgel.output.History`` (or anything with ``append(row)``), ``vtk``: a ``VTKSeries`` written
+    every ``vtk_every`` steps and at events; ``progress``: called with one line per step.
+    ``stabilization`` (natural runs only) damps the rate of displacement; events are then recorded
+    without location. ``keep_states`` stores every state in its ``PathPoint``.
+    ``newton_options`` go to every Newton solve; unless it sets ``atol``, solves get the floor
+    ``1e-10 * step * |dR/dlambda|`` (a solve that starts next to its solution cannot reduce a
+    residual at round-off level by a relative factor).
+    Raises ``ContinuationError`` (with the path so far) when the step falls below ``min_step``.
+    """
+    if method not in ("natural", "arclength"):
+        raise ValueError(f"method must be 'natural' or 'arclength', got {method!r}")
+    if not step > 0:
+        raise ValueError(f"step must be positive, got {step!r}")
+    if method == "natural" and target is None:
+        raise ValueError("a natural-parameter run needs a target")
+    if stabilization is not None and method != "natural":
+        raise ValueError("stabilisation is for natural-parameter runs; arclength needs none")
+    if direction not in (1, -1):
+        raise ValueError(f"direction must be +1 or -1, got {direction!r}")
+    if restart is not None and restart.method != method:
+        raise ValueError(f"the checkpoint is from a {restart.method!r} run, not {method!r}")
+    min_step = step * 1e-6 if min_step is None else min_step
+    max_step = step * 10 if max_step is None else max_step
+    if restart is not None:
+        problem.restore_state(restart.state)
+        parameter.Set(restart.parameter)
+        step = restart.step
+    newton_options = dict(newton_options or {})
+    first = problem.solve(**newton_options)
+    newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(load_rate(problem, parameter).residual)))
+    driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
+                     vtk_every=vtk_every, progress=progress, keep_states=keep_states, stop=stop,
+                     max_steps=max_steps, locate=stabilization is None, newton_options=newton_options)
+    previous = None
+    if restart is not None and restart.previous_state is not None:
+        previous = _Converged(restart.previous_parameter, restart.previous_state, None)
+    current = driver.converged(first.iterations)
+    driver.record(current, dissipated=0.0 if stabilization else None)
+    if method == "natural":
+        return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
+                        stabilization=stabilization, grow=grow, easy=easy_iterations, newton_options=newton_options)
+    return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
+                      direction=direction, scale=restart.scale if restart else None, grow=grow,
+                      easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
+
+
+def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, max_step, stabilization, grow, easy,
+             newton_options) -> PathResult:
+    problem, parameter = driver.problem, driver.parameter
+    system = _Damped(problem, parameter, stabilization) if stabilization is not None else problem
+    state = {"current": current}
+
+    def segment_from(a: _Converged, b: _Converged) -> Callable[[float], None]:
+        def solve_at(s: float) -> None:
+            driver._goto(a)
+            problem.restore_state(a.state + s * (b.state - a.state))
+            parameter.Set(a.parameter + s * (b.parameter - a.parameter))
+            problem.solve(**newton_options)
+        return solve_at
+
+    def switch(a: _Converged, critical: _Converged) -> _Converged:
+        corrector = _Corrector(problem, parameter)
+        free = problem.free_mask
+        return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
+            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s))
+
+    def on_step(lam: float, newton_result: NewtonResult) -> bool:
+        driver.steps += 1
+        a = state["current"]
+        b = driver.converged(newton_result.iterations)
+        located, switched = driver.check(a, b, segment_from(a, b), switch)
+        for point, kind in located:
+            driver._goto(point)
+            driver.record(point, events=(kind,))
+        if switched:
+            state["current"] = located[-1][0]
+            return True
+        driver._goto(b)
+        pp = driver.record(b, dissipated=system.fraction if stabilization is not None else None)
+        state["current"] = b
+        return driver.should_stop(pp)
+
+    h = step
+    while True:
+        try:
+            result = ramp(system, parameter, target, step=h, min_step=min_step, max_step=max_step, grow=grow,
+                          easy_iterations=easy, on_step=on_step, newton_options=newton_options,
+                          tangent_start=stabilization is None)  # damping's tangent needs a step
+        except RampError as err:
+            path = PathResult(driver.points, driver.events, "min_step",
+                              driver.checkpoint("natural", state["current"], None, h, None))
+            raise ContinuationError(str(err), path) from err
+        if len(result.values) >= 2:
+            h = abs(result.values[-1] - result.values[-2])
+        if not result.stopped:
+            driver.stop_reason = "target"
+        if driver.stop_reason:
+            break
+    return PathResult(driver.points, driver.events, driver.stop_reason,
+                      driver.checkpoint("natural", state["current"], None, h, None))
+
+
+def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None, *, step, target, min_step,
+               max_step, direction, scale, grow, easy, hard, newton_options) -> PathResult:
+    problem, parameter = driver.problem, driver.parameter
+    free = problem.free_mask
+    corrector = _Corrector(problem, parameter, **{k: v for k, v in newton_options.items()
+                                                  if k in ("rtol", "atol", "xtol", "maxit")})
+
+    def path_tangent() -> np.ndarray:
+        """``dx_free/dlambda`` at the current state."""
+        K = free_matrix(problem.tangent(problem.state), free)
+        return -spsolve(K, load_rate(problem, parameter).residual)
+
+    if scale is None:
+        # |dx/dlambda| at the start: load and displacement share the arc length equally there
+        scale = float(np.linalg.norm(path_tangent())) or 1.0
+
+    def metric_direction(dx: np.ndarray, dlam: float) -> tuple[np.ndarray, float]:
+        norm = math.sqrt(dx @ dx / scale**2 + dlam**2)
+        return dx / norm, dlam / norm
+
+    def advance(a: _Converged, d: tuple[np.ndarray, float], ds: float) -> NewtonResult:
+        guess = a.state.copy()
+        guess[free] += ds * d[0]
+        return corrector.solve((guess, a.parameter + ds * d[1]), (a.state[free], a.parameter),
+                               (d[0] / scale**2, d[1]), ds)
+
+    def switch(a: _Converged, critical: _Converged) -> _Converged:
+        return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
+            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s))
+
+    ds = step
+    while True:
+        if previous is None:
+            d = metric_direction(path_tangent() * direction, float(direction))
+        else:
+            d = metric_direction(current.state[free] - previous.state[free], current.parameter - previous.parameter)
+        try:
+            newton_result = advance(current, d, ds)
+        except NewtonError as err:
+            ds /= 2
+            if ds < min_step:
+                path = PathResult(driver.points, driver.events, "min_step",
+                                  driver.checkpoint("arclength", current, previous, ds, scale))
+                raise ContinuationError(f"arc length step fell below min_step={min_step:g} at parameter "
+                                        f"{current.parameter:g}: {err}", path) from err
+            continue
+        driver.steps += 1
+        landed = target is not None and (parameter.Get() - target) * (current.parameter - target) <= 0 \
+            and parameter.Get() != current.parameter
+        if landed:
+            # re-converge at exactly the target from the interpolated state
+            t = (target - current.parameter) / (parameter.Get() - current.parameter)
+            problem.restore_state(current.state + t * (problem.save_state() - current.state))
+            parameter.Set(target)
+            newton_result = problem.solve(**newton_options)
+        b = driver.converged(newton_result.iterations)
+        step_ds = ds if not landed else ds * t
+
+        def segment(s: float, a=current, d=d, span=step_ds) -> None:
+            driver._goto(a)
+            advance(a, d, s * span)
+
+        located, switched = driver.check(current, b, segment, switch)
+        for point, kind in located:
+            driver._goto(point)
+            driver.record(point, events=(kind,))
+        if switched:
+            previous, current = located[-2][0], located[-1][0]
+            continue
+        driver._goto(b)
+        pp = driver.record(b)
+        previous, current = current, b
+        if landed:
+            driver.stop_reason = "target"
+            break
+        if driver.should_stop(pp):
+            break
+        if newton_result.iterations <= easy:
+            ds = min(ds * grow, max_step)
+        elif newton_result.iterations > hard:
+            ds = max(ds / 2, min_step)
+    return PathResult(driver.points, driver.events, driver.stop_reason,
+                      driver.checkpoint("arclength", current, previous, ds, scale))

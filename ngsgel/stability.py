@@ -1,0 +1,258 @@
+"""Stability of equilibrium states: spectra of the tangent, load rates, linear buckling, imperfections.
+
+Everything here sees a ``NonlinearSystem`` that also has ``space``, ``mesh`` and ``kinematics``
+(an ``EquilibriumProblem``) and one load parameter (an NGSolve ``Parameter``). Matrices are the
+NGSolve tangent restricted to the free dofs and handed to scipy:
+
+- the number of negative eigenvalues is exact (Sylvester's inertia of an LDL^T factorisation:
+  SuperLU with diagonal pivots in symmetric mode), so a change between two states is certain;
+- the lowest eigenvalues and modes solve ``K phi = omega M phi`` with ``M`` the (volume-weighted)
+  L2 Gram matrix of the displacement, so ``omega`` is a stiffness per volume that does not depend
+  on the mesh, and modes come out with unit root-mean-square displacement over the body;
+- ``dR/dlambda`` (the load rate) is a central difference of the residual at fixed state plus the
+  tangent times the rate of the prescribed values. All loads of ``EquilibriumProblem`` are affine
+  in their parameter (``W`` is linear in ``mu``, dead tractions and prescribed values are linear
+  in their Parameter), so the difference is exact up to round-off; for a nonlinear dependence it
+  is second-order accurate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import ngsolve as ngs
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+__all__ = ["Spectrum", "LoadRate", "BucklingResult", "free_matrix", "mass_matrix", "negative_count",
+           "spectrum", "load_rate", "mode_function", "load_projection", "linear_buckling",
+           "random_field", "seed_imperfection"]
+
+
+def free_matrix(mat: ngs.BaseMatrix, free_mask: np.ndarray) -> sp.csc_matrix:
+    """An assembled NGSolve sparse matrix restricted to the free dofs, as scipy CSC."""
+    vals, cols, indptr = mat.CSR()
+    n = len(free_mask)
+    full = sp.csr_matrix((np.array(vals), np.array(cols), np.array(indptr)), shape=(n, n))
+    free = np.flatnonzero(free_mask)
+    return full[free][:, free].tocsc()
+
+
+def mass_matrix(problem) -> ngs.BaseMatrix:
+    """Volume-weighted L2 Gram matrix of the displacement space (same sparsity as the tangent)."""
+    V = problem.space
+    u, v = V.TnT()
+    form = ngs.BilinearForm(V, symmetric=True)
+    form += problem.kinematics.volume_weight() * ngs.InnerProduct(u, v) * ngs.dx
+    form.Assemble()
+    return form.mat
+
+
+def negative_count(K: sp.spmatrix) -> int:
+    """Number of negative eigenvalues of the symmetric matrix ``K`` (exact, by inertia)."""
+    lu = sla.splu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+    # Diagonal pivoting with a symmetric permutation makes L U = P K P^T an LDL^T in disguise:
+    # the signs of U's diagonal are the inertia. Any row swap would break that argument.
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        raise RuntimeError("SuperLU pivoted off the diagonal; the inertia of the tangent is unknown")
+    return int(np.count_nonzero(lu.U.diagonal() < 0))
+
+
+@dataclass
+class Spectrum:
+    """Lowest eigenvalues (ascending) of ``K phi = omega M phi`` on the free dofs, their modes
+    (columns, free-dof vectors, ``phi^T M phi = volume``) and the exact negative count of ``K``."""
+
+    eigenvalues: np.ndarray
+    modes: np.ndarray
+    negative: int
+
+    def crossing(self, index: int) -> tuple[float, np.ndarray]:
+        """Eigenvalue and mode number ``index`` (0 = lowest)."""
+        return float(self.eigenvalues[index]), self.modes[:, index]
+
+
+def _volume(problem) -> float:
+    return problem.integrate(ngs.CF(1.0))
+
+
+def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spmatrix | None = None) -> Spectrum:
+    """Lowest ``count`` eigenvalues of the tangent at the current state (``K``, ``M``: free-dof
+    matrices if already at hand). Shift-invert about a shift below the lowest eigenvalue: the
+    exact negative count says how many must lie below zero, and the shift moves down until the
+    computed set contains them."""
+    free = problem.free_mask
+    if K is None:
+        K = free_matrix(problem.tangent(problem.state), free)
+    if M is None:
+        M = free_matrix(mass_matrix(problem), free)
+    n = K.shape[0]
+    count = min(count, n - 1)
+    negative = negative_count(K)
+    # A shift a hair below zero keeps K - sigma M regular at an exactly critical state.
+    scale = float(np.max(np.abs(K.diagonal() / M.diagonal())))
+    sigma = -1e-10 * scale
+    for _ in range(60):
+        values, vectors = sla.eigsh(K, k=count, M=M, sigma=sigma, which="LM")
+        order = np.argsort(values)
+        values, vectors = values[order], vectors[:, order]
+        if np.count_nonzero(values < 0) >= min(negative, count):
+            break
+        sigma = 2.0 * min(float(values[0]), sigma)
+    else:
+        raise RuntimeError(f"could not reach the {negative} negative eigenvalues of the tangent")
+    vectors *= np.sqrt(_volume(problem))
+    return Spectrum(eigenvalues=values, modes=vectors, negative=negative)
+
+
+@dataclass
+class LoadRate:
+    """``dR/dlambda`` on the free dofs (``residual``) and the rate of the prescribed values
+    (``prescribed``, full length, zero on free dofs)."""
+
+    residual: np.ndarray
+    prescribed: np.ndarray
+
+
+def load_rate(problem, parameter: ngs.Parameter, *, x: ngs.BaseVector | None = None,
+              K: ngs.BaseMatrix | None = None, relative_step: float = 1e-4) -> LoadRate:
+    """Total derivative of the free residual with respect to the load parameter along states whose
+    constrained dofs follow their prescribed values (central difference, see the module notes).
+    ``K``: the tangent at ``x`` if already assembled."""
+    x = problem.state if x is None else x
+    lam = parameter.Get()
+    h = relative_step * (1.0 + abs(lam))
+    r_plus, r_minus = x.CreateVector(), x.CreateVector()
+    g_plus, g_minus = x.CreateVector(), x.CreateVector()
+    try:
+        parameter.Set(lam + h)
+        problem.residual(x, r_plus)
+        problem.prescribed(g_plus)
+        parameter.Set(lam - h)
+        problem.residual(x, r_minus)
+        problem.prescribed(g_minus)
+    finally:
+        parameter.Set(lam)
+    free = problem.free_mask
+    dg = (g_plus.FV().NumPy() - g_minus.FV().NumPy()) / (2 * h)
+    dg[free] = 0.0
+    dR = (r_plus.FV().NumPy() - r_minus.FV().NumPy()) / (2 * h)
+    if np.any(dg):
+        # the free rows feel the moving constrained dofs through the coupling block of the tangent
+        move = x.CreateVector()
+        move.FV().NumPy()[:] = dg
+        r_plus.data = (problem.tangent(x) if K is None else K) * move
+        dR = dR + r_plus.FV().NumPy()
+    return LoadRate(residual=dR[free].copy(), prescribed=dg)
+
+
+def mode_function(problem, vector: np.ndarray, *, name: str = "mode") -> ngs.GridFunction:
+    """A free-dof vector as a displacement GridFunction (zero on constrained dofs)."""
+    gf = ngs.GridFunction(problem.space, name=name)
+    gf.vec.FV().NumPy()[:] = 0.0
+    gf.vec.FV().NumPy()[problem.free_mask] = vector
+    return gf
+
+
+def load_projection(mode: np.ndarray, rate: LoadRate) -> float:
+    """``|phi . dR/dlambda| / (|phi| |dR/dlambda|)``: O(1) at a limit point, zero at a
+    bifurcation (the critical mode does no work with the load increment there)."""
+    denom = np.linalg.norm(mode) * np.linalg.norm(rate.residual)
+    return float(abs(mode @ rate.residual) / denom) if denom > 0 else 0.0
+
+
+@dataclass
+class BucklingResult:
+    """Linear buckling of a prestressed state: ``K0 + alpha dK`` singular at ``load_factors``;
+    ``parameters = lambda0 + alpha * increment``; ``modes`` unit-RMS GridFunctions."""
+
+    load_factors: np.ndarray
+    parameters: np.ndarray
+    modes: list[ngs.GridFunction]
+
+
+def linear_buckling(problem, parameter: ngs.Parameter, *, increment: float, count: int = 3,
+                    relative_step: float = 1e-3) -> BucklingResult:
+    """The *Buckle analogue at the current (converged, stable) state ``x0, lambda0``.
+
+    The load increment ``increment`` gives the linear response ``du = -K0^-1 dR/dlambda`` (with the
+    prescribed rate on constrained dofs) and the stiffness change ``dK`` per unit of it, a central
+    difference of the tangent along ``(du, increment)``; then ``K0 phi = -alpha dK phi`` for the
+    smallest positive ``alpha``. Solved as ``(-dK) phi = theta K0 phi``, ``theta = 1/alpha`` largest,
+    which needs ``K0`` positive definite (a stable prestressed state)."""
+    x0 = problem.save_state()
+    free = problem.free_mask
+    lam0 = parameter.Get()
+    K0 = free_matrix(problem.tangent(problem.state), free)
+    if negative_count(K0) != 0:
+        raise ValueError("linear buckling needs a stable prestressed state (the tangent has negative eigenvalues)")
+    rate = load_rate(problem, parameter)
+    du = rate.prescribed * increment
+    du[free] = -sla.spsolve(K0, rate.residual) * increment
+    eps = relative_step
+    tangents = []
+    try:
+        for sign in (1.0, -1.0):
+            problem.restore_state(x0 + sign * eps * du)
+            parameter.Set(lam0 + sign * eps * increment)
+            tangents.append(free_matrix(problem.tangent(problem.state), free))
+    finally:
+        problem.restore_state(x0)
+        parameter.Set(lam0)
+    dK = (tangents[0] - tangents[1]) / (2 * eps)
+    theta, vectors = sla.eigsh(-dK, k=min(count, K0.shape[0] - 1), M=K0, which="LA")
+    positive = theta > 0
+    order = np.argsort(-theta[positive])
+    alpha = 1.0 / theta[positive][order]
+    vectors = vectors[:, positive][:, order]
+    M = free_matrix(mass_matrix(problem), free)
+    volume = _volume(problem)
+    modes = []
+    for i in range(len(alpha)):
+        phi = vectors[:, i] * np.sqrt(volume / (vectors[:, i] @ (M @ vectors[:, i])))
+        modes.append(mode_function(problem, phi, name=f"buckling_mode_{i}"))
+    return BucklingResult(load_factors=alpha, parameters=lam0 + alpha * increment, modes=modes)
+
+
+def random_field(problem, *, correlation_length: float, seed: int = 0, terms: int = 64) -> ngs.GridFunction:
+    """A smooth random displacement field, zero on constrained dofs, unit RMS over the body: a sum
+    of ``terms`` plane waves per component with random directions, phases and wave numbers up to
+    ``2 pi / correlation_length``."""
+    rng = np.random.default_rng(seed)
+    mesh = problem.mesh
+    coords = (ngs.x, ngs.y, ngs.z)[:mesh.dim]
+    components = []
+    for _ in problem.kinematics.components:
+        total = ngs.CF(0.0)
+        for _ in range(terms):
+            direction = rng.normal(size=mesh.dim)
+            direction *= rng.uniform(0.0, 2 * np.pi / correlation_length) / np.linalg.norm(direction)
+            phase = sum(float(d) * c for d, c in zip(direction, coords)) + rng.uniform(0, 2 * np.pi)
+            total = total + rng.normal() * ngs.cos(phase)
+        components.append(total)
+    gf = ngs.GridFunction(problem.space, name="random_field")
+    gf.Set(ngs.CF(tuple(components)) if len(components) > 1 else components[0])
+    gf.vec.FV().NumPy()[~problem.free_mask] = 0.0
+    rms = np.sqrt(problem.integrate(ngs.InnerProduct(gf, gf)) / _volume(problem))
+    gf.vec.data *= 1.0 / rms
+    return gf
+
+
+def seed_imperfection(problem, shapes: Sequence[ngs.GridFunction], amplitudes: Sequence[float]) -> ngs.GridFunction:
+    """Geometric imperfection (Abaqus *Imperfection): the reference geometry is moved by
+    ``sum a_i shape_i`` (shapes as from ``spectrum``/``linear_buckling`` modes or ``random_field``,
+    amplitudes in length units), through ``mesh.SetDeformation``. Call before the first solve;
+    ``problem.mesh.UnsetDeformation()`` removes it."""
+    if len(shapes) != len(amplitudes):
+        raise ValueError(f"got {len(shapes)} shapes and {len(amplitudes)} amplitudes")
+    if len(problem.kinematics.components) != problem.mesh.dim:
+        raise ValueError("imperfections need one displacement component per mesh direction")
+    total = ngs.GridFunction(problem.space, name="imperfection")
+    total.vec[:] = 0.0
+    for shape, a in zip(shapes, amplitudes):
+        total.vec.data += float(a) * shape.vec
+    problem.mesh.SetDeformation(total)
+    return total

@@ -1,0 +1,226 @@
+"""Path following, stability and branch switching on coarse classical models: Euler columns, a
+snapping shallow arch, pseudo-viscous stabilisation, records and restarts, the demo script."""
+
+import csv
+import math
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+from ngsolve.meshes import MakeStructured2DMesh
+
+from ngsgel import EquilibriumProblem, NeoHookeanFilm, PlaneStrain
+from ngsgel.continuation import Checkpoint, ContinuationError, StabilityOptions, Stabilization, follow_path
+from ngsgel.output import History
+from ngsgel.stability import linear_buckling, random_field, seed_imperfection
+
+import buckling_demo
+
+E, NU = 1.0, 0.3
+E_PLANE = E / (1 - NU**2)  # bending and axial modulus of a plane-strain strip with free faces
+
+
+def column(ny, *, length=20.0, control="force", order=3):
+    """Plane-strain column of thickness 1 centred on x = 0 (a mirror-symmetric quad mesh),
+    clamped at the bottom. ``force``: dead compressive traction ``lambda * sigma_cr`` on the free
+    top, sigma_cr the clamped-free Euler stress ``pi^2 E' h^2 / (48 L^2)``, so lambda_cr -> 1 as
+    L/h -> infinity. ``displacement``: top shortened by ``lambda * delta`` with its lateral motion
+    free (clamped-guided, P_cr = pi^2 E' I / L^2), delta = the matching Euler shortening."""
+    mesh = MakeStructured2DMesh(quads=True, nx=2, ny=ny, mapping=lambda x, y: (x - 0.5, y * length))
+    load = ngs.Parameter(0.0)
+    # LU with pivoting: the tangent is indefinite past the bifurcation
+    prob = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=NeoHookeanFilm(E=E, nu=NU), lam0=2.0,
+                              order=order, inverse="umfpack")
+    prob.fix("bottom")
+    sigma_cr = math.pi**2 * E_PLANE / (48 * length**2)
+    if control == "force":
+        prob.add_traction("top", ngs.CF((0, -load * sigma_cr)))
+    else:
+        prob.prescribe("top", "y", -load * 4 * sigma_cr * length / E_PLANE)
+    top = mesh(0.0, length)
+    return prob, load, lambda: prob.displacement(top)[0]
+
+
+def test_euler_column_critical_load_and_stable_post_buckling():
+    L = 20.0
+    critical = {}
+    for ny in (10, 20):
+        prob, load, tip = column(ny, length=L)
+        result = follow_path(prob, load, step=0.3, max_step=20.0, target=1.2, qoi={"tip": tip},
+                             stability=StabilityOptions(eigenvalues=2, tol=1e-6, switch=ny == 20,
+                                                        amplitude=0.05, length=1.0),
+                             stop=lambda p: abs(p.qoi["tip"]) > 1.0 or (ny == 10 and bool(p.events)),
+                             max_steps=40)
+        bifurcations = [e for e in result.events if e.kind == "bifurcation"]
+        assert len(bifurcations) == 1 and result.events[0] is bifurcations[0], [e.kind for e in result.events]
+        event = bifurcations[0]
+        assert (event.negative_before, event.negative_after) == (0, 1)
+        assert event.parameter_error <= 1e-6
+        critical[ny] = event.parameter
+    # measured: 1.00291 (ny = 10), 1.00182 (ny = 20); large-slenderness value 1
+    assert abs(critical[20] - 1.0) < 0.01
+    assert abs(critical[20] - 1.0) < abs(critical[10] - 1.0)
+    assert event.load_projection < 1e-6  # the mode does no work with the axial load
+
+    # the nonlinear critical load agrees with the *Buckle analogue from the unloaded state
+    # (they differ only by the pre-buckling shortening, ~1e-4 here)
+    fresh, fresh_load, _ = column(20, length=L)
+    fresh.solve()
+    buckling = linear_buckling(fresh, fresh_load, increment=1.0, count=2)
+    assert abs(buckling.parameters[0] - critical[20]) < 1e-3
+    assert buckling.parameters[1] > 5  # second mode (three-quarter wave) ~ 9 lambda_cr
+
+    # branch switching: stable post-buckled branch, rising as the elastica says:
+    # P/P_cr = 1 + pi^2 d^2 / (32 L^2) + O(d^4) for tip deflection d of a clamped-free column
+    switch = [e for e in result.events if e.kind == "branch switch"]
+    assert len(switch) == 1
+    assert switch[0].negative_after == 0
+    after = [p for p in result.points if p.step >= switch[0].step and not p.events]
+    assert len(after) >= 3 and all(p.negative == 0 for p in after)
+    tips = np.abs([p.qoi["tip"] for p in after])
+    assert np.all(np.diff(tips) > 0) and tips[-1] > 1.0
+    last = after[-1]
+    slope = (last.parameter / critical[20] - 1) / last.qoi["tip"] ** 2
+    assert slope == pytest.approx(math.pi**2 / (32 * L**2), rel=0.02)  # measured 0.4 % low at d = 1.2
+
+
+def arch(**kwargs):
+    options = dict(rise=0.055, thickness=0.03, elements=16, order=3, load_scale=1e-4)
+    options.update(kwargs)
+    return buckling_demo.arch_problem(**options)
+
+
+def test_arch_snap_through_with_arc_length():
+    prob, load, deflection = arch()
+    result = follow_path(prob, load, step=0.01, max_step=0.02, target=0.05, qoi={"w": deflection},
+                         stability=StabilityOptions(eigenvalues=2, tol=1e-4), max_steps=60)
+    assert result.stop_reason == "target" and result.points[-1].parameter == 0.05
+    kinds = [e.kind for e in result.events]
+    assert kinds == ["limit point", "limit point"]
+    first, second = result.events
+    assert (first.negative_before, first.negative_after) == (0, 1)
+    assert (second.negative_before, second.negative_after) == (1, 0)
+    assert first.load_projection > 0.1 and second.load_projection > 0.1
+    # negative count: 0 before the first limit point, 1 between, 0 after (back to positive stiffness)
+    marks = [i for i, p in enumerate(result.points) if p.events]
+    for i, p in enumerate(result.points):
+        if not p.events:
+            assert p.negative == (1 if marks[0] < i < marks[1] else 0), (p.step, p.parameter, p.negative)
+    assert first.parameter > second.parameter
+    w = result.column("w")
+    assert w[-1] > 1.5 and result.points[-1].negative == 0
+
+    # the limit load against an independent estimate: the vertex of a parabola through a dense
+    # arc-length sampling of the path around its maximum
+    prob2, load2, deflection2 = arch()
+    dense = follow_path(prob2, load2, step=0.002, max_step=0.002, min_step=0.002, qoi={"w": deflection2},
+                        stop=lambda p: p.qoi["w"] > 0.7, max_steps=200)
+    lam = dense.column("parameter")
+    i = int(np.argmax(lam))
+    s = np.arange(len(lam), dtype=float)[i - 2:i + 3]
+    coef = np.polyfit(s, lam[i - 2:i + 3], 2)
+    reference = coef[2] - coef[1] ** 2 / (4 * coef[0])
+    assert abs(first.parameter - reference) < 1e-4, (first.parameter, reference)  # measured 4e-7
+    assert first.parameter_error <= 1e-4
+
+
+def test_symmetric_column_bifurcation_is_detected_and_switched_to_lower_energy():
+    prob, load, tip = column(12, control="displacement")
+    result = follow_path(prob, load, step=0.3, max_step=2.0, target=1.3, qoi={"tip": tip}, keep_states=True,
+                         stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    kinds = [e.kind for e in result.events]
+    assert kinds == ["bifurcation", "branch switch"], kinds
+    bif, switch = result.events
+    assert bif.load_projection < 1e-6
+    assert abs(bif.parameter - 1.0) < 0.01  # clamped-guided Euler value 1; measured 0.99961
+    assert switch.details["energy_gain"] < 0
+    end = result.points[-1]
+    assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
+    # the symmetric (straight) state at the same end shortening, re-converged from before the bifurcation
+    straight = [p for p in result.points if p.step < bif.step][-1]
+    prob.restore_state(straight.state)
+    load.Set(end.parameter)
+    prob.solve()
+    assert abs(tip()) < 1e-8
+    assert end.energy < prob.energy() * (1 - 0.02), (end.energy, prob.energy())  # measured 5.3 % lower
+
+
+def test_stabilised_snap_agrees_with_arc_length_and_stays_under_the_cap():
+    prob, load, deflection = arch()
+    with pytest.raises(ContinuationError, match="min_step"):  # undamped, natural stepping stalls at the limit
+        follow_path(prob, load, method="natural", step=0.001, max_step=0.001, min_step=5e-4, target=0.05,
+                    newton_options={"maxit": 10})
+    prob, load, deflection = arch()
+    cap = 0.05
+    damped = follow_path(prob, load, method="natural", step=0.001, max_step=0.001, target=0.05,
+                         qoi={"w": deflection}, stabilization=Stabilization(cap=cap), max_steps=500)
+    fractions = damped.column("dissipated_fraction")
+    assert np.all(fractions <= cap) and fractions.max() > 0.01  # measured max 0.044: the damping did work
+    prob2, load2, deflection2 = arch()
+    path = follow_path(prob2, load2, step=0.002, max_step=0.002, target=0.05, qoi={"w": deflection2},
+                       max_steps=500)
+    lam, w = path.column("parameter"), path.column("w")
+    top = int(np.argmax(np.diff(lam) < 0))  # first limit point
+    bottom = top + int(np.argmax(np.diff(lam[top:]) > 0))  # second limit point
+    lower, upper = slice(0, top + 1), slice(bottom, None)  # the two stable branches
+    limit_up = lam[top]
+    w_damped, lam_damped = damped.column("w"), damped.column("parameter")
+    jump = int(np.argmax(np.diff(w_damped)))
+    before = lam_damped[:jump + 1] < 0.9 * limit_up
+    after = (np.arange(len(lam_damped)) > jump) & (lam_damped > 1.2 * limit_up)
+    assert before.sum() > 5 and after.sum() > 5
+    ref_before = np.interp(lam_damped[:jump + 1][before], lam[lower], w[lower])
+    ref_after = np.interp(lam_damped[after], lam[upper], w[upper])
+    # measured 1.5e-4 and 5e-5 (mostly the linear interpolation of the reference), 4e-8 at the end load
+    assert np.max(np.abs(w_damped[:jump + 1][before] - ref_before)) < 1e-3
+    assert np.max(np.abs(w_damped[after] - ref_after)) < 1e-3
+    assert abs(w_damped[-1] - w[-1]) < 1e-6
+
+
+def test_history_and_restart_reproduce_an_uninterrupted_run(tmp_path):
+    prob, load, deflection = arch(elements=8, order=2)
+    whole = follow_path(prob, load, step=0.005, max_step=0.005, max_steps=10, qoi={"w": deflection})
+    prob, load, deflection = arch(elements=8, order=2)
+    with History(tmp_path / "history.csv") as history:
+        first = follow_path(prob, load, step=0.005, max_step=0.005, max_steps=6, qoi={"w": deflection},
+                            history=history, stability=StabilityOptions(eigenvalues=2))
+    first.checkpoint.save(tmp_path / "checkpoint.npz")
+    rows = list(csv.DictReader(open(tmp_path / "history.csv")))
+    assert len(rows) == len(first.points) == 7
+    assert set(rows[0]) >= {"step", "parameter", "w", "energy", "iterations", "negative", "eig0", "eig1",
+                            "events", "dissipated_fraction"}
+    assert float(rows[-1]["parameter"]) == pytest.approx(first.points[-1].parameter, rel=1e-12)
+    prob, load, deflection = arch(elements=8, order=2)
+    second = follow_path(prob, load, step=0.005, max_step=0.005, max_steps=4, qoi={"w": deflection},
+                         restart=Checkpoint.load(tmp_path / "checkpoint.npz"))
+    resumed = [p.parameter for p in first.points] + [p.parameter for p in second.points[1:]]
+    assert np.allclose(resumed, whole.column("parameter"), rtol=0, atol=1e-10)
+
+
+def test_seeded_mode_imperfection_grows_as_southwell_says():
+    prob, load, tip = column(10)
+    prob.solve()
+    buckling = linear_buckling(prob, load, increment=1.0, count=1)
+    lam_cr, mode = buckling.parameters[0], buckling.modes[0]
+    prob, load, tip = column(10)
+    top = prob.mesh(0.0, 20.0)
+    amplitude = 1e-3 / abs(mode(top)[0])  # tip imperfection 1e-3 thicknesses
+    seed_imperfection(prob, [mode], [amplitude])
+    result = follow_path(prob, load, method="natural", step=0.2, target=0.8, qoi={"tip": tip},
+                         stability=StabilityOptions(eigenvalues=1))
+    assert not result.events and all(p.negative == 0 for p in result.points)
+    # extra deflection a (P/P_cr) / (1 - P/P_cr) for an imperfection a in the first mode
+    assert abs(result.points[-1].qoi["tip"]) == pytest.approx(1e-3 * 0.8 / (lam_cr - 0.8), rel=0.01)  # measured 0.1 %
+    field = random_field(prob, correlation_length=2.0, seed=1)
+    assert np.all(field.vec.FV().NumPy()[~prob.free_mask] == 0.0)
+    rms = math.sqrt(prob.integrate(ngs.InnerProduct(field, field)) / prob.integrate(ngs.CF(1.0)))
+    assert rms == pytest.approx(1.0, rel=1e-10)
+    prob.mesh.UnsetDeformation()
+
+
+def test_buckling_demo_quick(tmp_path):
+    result = buckling_demo.main(["--quick", "--out", str(tmp_path)])
+    assert (tmp_path / "curve.png").stat().st_size > 1000
+    rows = list(csv.DictReader(open(tmp_path / "history.csv")))
+    assert len(rows) == len(result.points)
+    assert sum(1 for r in rows if "limit point" in r["events"]) == 2
