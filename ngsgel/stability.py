@@ -41,7 +41,10 @@ def free_matrix(mat: ngs.BaseMatrix, free_mask: np.ndarray) -> sp.csc_matrix:
 
 
 def mass_matrix(problem) -> ngs.BaseMatrix:
-    """Volume-weighted L2 Gram matrix of the displacement space (same sparsity as the tangent)."""
+    """Volume-weighted L2 Gram matrix of the displacement space (same sparsity as the tangent).
+    A problem with other unknowns than a displacement (a shell) provides its own ``mass_matrix``."""
+    if hasattr(problem, "mass_matrix"):
+        return problem.mass_matrix()
     V = problem.space
     u, v = V.TnT()
     form = ngs.BilinearForm(V, symmetric=True)

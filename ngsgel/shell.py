@@ -1,0 +1,482 @@
+"""Nonlinear Kirchhoff–Love shell for thin gel walls in equilibrium with a homogeneous ``mu``.
+
+Model
+-----
+The mesh is the mid-surface of the swollen reference (a 2D manifold in 3D, e.g.
+``geometries.cap_midsurface``), thickness ``t`` in that reference. A material point at height
+``zeta`` along the reference normal ``N`` moves to ``phi + zeta lever n`` (``phi = X + u`` the
+deformed mid-surface, ``n`` its unit normal, ``lever`` the mean thickness stretch: the deformed
+lever arm), and the thickness direction is stretched by ``lam3_q`` at the through-thickness point
+``q``. The in-plane deformation gradient of the layer at ``zeta`` is exact for this kinematics,
+
+    F_in(zeta) = (Fm + zeta lever Fm C^+ S) A(zeta)^-1,      A(zeta) = P + zeta grad N + N (x) N,
+
+``Fm = P + grad_s u`` the mid-surface gradient, ``C = Fm^T Fm``, ``S = Fm^T grad_s n`` the deformed
+curvature in reference coordinates, ``A`` the reference shifter. The 3D deformation gradient of
+the layer is ``F_q = F_in(zeta_q) + lam3_q n (x) N`` and the energy per unit reference mid-surface
+area is the gel's own energy (``material.reference_energy``, one formula) integrated through the
+thickness by Gauss–Legendre quadrature with the reference volume element ``det A``:
+
+    psi = t/2 sum_q w_q det A(zeta_q) W'(F_q, mu).
+
+Plane stress is not imposed by a formula: each ``lam3_q`` is an unknown (an element-wise
+polynomial, ``SurfaceL2``) and minimising the energy makes ``dW'/dlam3 = 0``, i.e. zero normal
+stress at every through-thickness point (in the L2 sense of its space). Bending therefore comes
+from the same energy: for small ``zeta S`` it is ``t^3/24 kappa : C_ps : kappa`` with the
+plane-stress tangent moduli of the *current* membrane state (so a swollen or graded membrane
+changes its bending stiffness consistently); two quadrature points integrate that leading term
+exactly. Uniform dilation of a curved or flat reference is represented exactly (free swelling
+of a shell is the closed form ``lam_free(mu)`` to round-off).
+
+Discretisation (locking-free for thin walls)
+--------------------------------------------
+``u`` is continuous (``VectorH1``, order ``k >= 2``), so normals jump across element edges. The
+curvature is distributional: inside elements it is ``S`` from the surface Hessian of ``u``; on
+edges it is the jump of the normal angle, measured element by element against an averaged
+reference normal (as in the HHJ shells of Neunteufel & Schöberl, Comput. Struct. 2024) and
+shared through a hybrid rotation unknown on the edges (``NormalFacetSurface``, order ``k-1``).
+Instead of a condensed moment field (a saddle point) the edge terms are a hybridised symmetric
+interior penalty written as an energy,
+
+    sum_T int_dT  m_mumu theta_T + (alpha D / 2h) theta_T^2,   theta_T = angle jump_T + omega . mu_T,
+
+with ``m = -dpsi/dS`` the element's bending moment: consistent (the exact solution has
+``theta_T = 0`` and the first variation gives the moment–rotation coupling of the distributional
+curvature), and the whole Hessian stays symmetric positive definite at stable states, so the
+stability tools (inertia, spectra) see the physical stability of the shell. There is no shear
+strain (Kirchhoff–Love), hence no shear locking as ``t -> 0``.
+
+Boundary conditions: ``clamp`` (displacement and rotation), ``simply_support`` (displacement),
+``symmetry`` (normal displacement and rotation), ``fix``/``prescribe`` (components), free edges
+by default; dead loads on surface regions and point loads at mesh vertices, scaled by
+``Parameter`` s. The class implements the ``NonlinearSystem`` protocol of ``ngsgel.newton`` and
+what ``ramp``, ``follow_path`` and ``ngsgel.stability`` use.
+
+Limits: the averaged edge normals are those of the reference, so an element may rotate by less
+than ~80 degrees against its neighbours' mean reference normal before ``acos`` degenerates (the
+rigid rotation of the whole shell is harmless only together with ``rotate_frame``); membrane
+locking of curved shells is not treated (use order 3 for caps at t/r < 0.01).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from numbers import Real
+
+import numpy as np
+import ngsolve as ngs
+
+from .materials import FloryRehnerGel, _check_lam0
+from .newton import LinearSolver, NewtonResult, newton
+
+__all__ = ["GelShell", "plate_bending_stiffness"]
+
+_COMPONENTS = ("x", "y", "z")
+
+
+def plate_bending_stiffness(material: FloryRehnerGel, *, lam0: float, thickness: float) -> float:
+    """``D = E t^3 / (12 (1 - nu^2)) = G t^3 / (6 (1 - nu))`` of a free-swollen gel plate at fixed
+    ``mu`` (drained: ``E = 2 G (1 + nu)`` with ``nu = drained_poisson_ratio``; note that
+    ``youngs_modulus`` is the undrained ``3 G``)."""
+    if not isinstance(thickness, Real) or not thickness > 0:
+        raise ValueError(f"thickness must be a number > 0, got {thickness!r}")
+    G = material.shear_modulus(lam0)
+    nu = material.drained_poisson_ratio(lam0)
+    return G * thickness**3 / (6.0 * (1.0 - nu))
+
+
+def _normalize(v):
+    return v / ngs.Norm(v)
+
+
+class GelShell:
+    """Shell of a Flory–Rehner gel on a mid-surface mesh; see the module notes.
+
+    ``mesh``: surface mesh in 3D (regions are ``mesh.Boundaries``, edges ``mesh.BBoundaries``);
+    ``lam0``: stretch of the reference from the dry state; ``thickness``: reference thickness;
+    ``mu``: number (held in the ``Parameter`` ``self.mu``); ``order``: displacement order
+    (>= 2); ``thickness_points``: Gauss points through the thickness (>= 2); ``penalty``:
+    dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``).
+    """
+
+    def __init__(self, mesh: ngs.Mesh, *, material: FloryRehnerGel, lam0: float, thickness: float,
+                 mu: float = 0.0, order: int = 3, thickness_points: int = 2, penalty: float = 4.0,
+                 consistent_moment: bool = False, inverse: str = "sparsecholesky"):
+        if mesh.dim != 3 or mesh.ne != 0 or mesh.nface == 0:
+            raise ValueError("mesh must be a surface mesh in 3D (a mid-surface: no volume elements)")
+        if not isinstance(material, FloryRehnerGel):
+            raise ValueError(f"material must be a FloryRehnerGel, got {type(material).__name__}")
+        _check_lam0(lam0)
+        if not isinstance(thickness, Real) or not (0 < thickness < math.inf):
+            raise ValueError(f"thickness must be a finite number > 0, got {thickness!r}")
+        if not isinstance(order, int) or order < 2:
+            raise ValueError(f"order must be an integer >= 2 (curvature needs second derivatives), got {order!r}")
+        if not isinstance(thickness_points, int) or thickness_points < 2:
+            raise ValueError(f"thickness_points must be an integer >= 2 (bending needs two layers), got {thickness_points!r}")
+        if not isinstance(penalty, Real) or not penalty > 0:
+            raise ValueError(f"penalty must be a number > 0, got {penalty!r}")
+        if not isinstance(mu, Real) or not math.isfinite(mu):
+            raise ValueError(f"mu must be a finite number, got {mu!r}")
+        if isinstance(material.Nv, Real):
+            material.lam_free(float(mu))  # raises ValueError naming mu and its range
+        self.mesh = mesh
+        self.material = material
+        self.lam0 = float(lam0)
+        self.thickness = float(thickness)
+        self.order = order
+        self.penalty = float(penalty)
+        self.inverse = inverse
+        self.consistent_moment = bool(consistent_moment)
+        self.mu = ngs.Parameter(float(mu))
+        xi, wq = np.polynomial.legendre.leggauss(thickness_points)
+        self._layers = [(0.5 * self.thickness * float(a), float(b)) for a, b in zip(xi, wq)]
+        self._fixed: dict[str, list[str]] = {c: [] for c in _COMPONENTS}
+        self._rotation_fixed: list[str] = []
+        self._prescribed: list[tuple[str, int, ngs.CoefficientFunction]] = []
+        self._surface_loads: list[tuple[str, ngs.CoefficientFunction]] = []
+        self._point_loads: list[tuple[np.ndarray, np.ndarray, ngs.Parameter | None]] = []
+        self._space = None
+        self._form = None
+
+    # ------------------------------------------------------------------ boundary conditions
+    def _check_open(self) -> None:
+        if self._space is not None:
+            raise RuntimeError("boundary conditions and loads must be declared before the first solve")
+
+    def _check_edge(self, boundary: str) -> None:
+        names = set(self.mesh.GetBBoundaries())
+        for part in boundary.split("|"):
+            if part not in names:
+                raise ValueError(f"unknown edge {part!r}; the mesh has boundary curves {sorted(names - {''})}")
+
+    def _component(self, component: str) -> str:
+        if component not in _COMPONENTS:
+            raise ValueError(f"component must be one of {_COMPONENTS}, got {component!r}")
+        return component
+
+    def fix(self, boundary: str, components: Sequence[str] | str = _COMPONENTS) -> None:
+        """Zero displacement components on the boundary curve(s) ``boundary`` ('a|b')."""
+        self._check_open()
+        self._check_edge(boundary)
+        for c in ([components] if isinstance(components, str) else components):
+            self._fixed[self._component(c)].append(boundary)
+
+    def fix_rotation(self, boundary: str) -> None:
+        """No rotation about the edge: the edge's normal angle keeps its reference value."""
+        self._check_open()
+        self._check_edge(boundary)
+        self._rotation_fixed.append(boundary)
+
+    def clamp(self, boundary: str) -> None:
+        self.fix(boundary)
+        self.fix_rotation(boundary)
+
+    def simply_support(self, boundary: str) -> None:
+        self.fix(boundary)
+
+    def symmetry(self, boundary: str, *, normal: str) -> None:
+        """Symmetry plane with normal along axis ``normal``: that displacement component and the
+        rotation about the edge vanish."""
+        self.fix(boundary, normal)
+        self.fix_rotation(boundary)
+
+    def prescribe(self, boundary: str, component: str, value) -> None:
+        """Displacement ``component`` equals ``value`` (number or CoefficientFunction, e.g. with a
+        ``Parameter``) on the boundary curve(s) ``boundary``."""
+        self.fix(boundary, component)
+        cf = value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(float(value))
+        self._prescribed.append((boundary, _COMPONENTS.index(component), cf))
+
+    def add_surface_load(self, region: str, load) -> None:
+        """Dead load per unit reference area (3-vector, numbers or CoefficientFunctions) on the
+        surface region(s) ``region`` ('.*' for all)."""
+        self._check_open()
+        if not any(self.mesh.Boundaries(region).Mask()):
+            raise ValueError(f"region {region!r} matches no surface region; the mesh has {sorted(set(self.mesh.GetBoundaries()))}")
+        cf = load if isinstance(load, ngs.CoefficientFunction) else ngs.CF(tuple(load))
+        if cf.dim != 3:
+            raise ValueError(f"load must have 3 components, got {cf.dim}")
+        self._surface_loads.append((region, cf))
+
+    def add_point_load(self, point: Sequence[float], force: Sequence[float], *,
+                       scale: ngs.Parameter | None = None) -> None:
+        """Concentrated dead force ``scale * force`` at the mesh vertex at ``point`` (must be a
+        vertex within 1e-8 of the mesh size)."""
+        self._check_open()
+        force = np.asarray(force, dtype=float)
+        if force.shape != (3,) or not np.all(np.isfinite(force)):
+            raise ValueError(f"force must be 3 finite numbers, got {force!r}")
+        coords = np.array([v.point for v in self.mesh.vertices])
+        dist = np.linalg.norm(coords - np.asarray(point, dtype=float), axis=1)
+        vertex = int(np.argmin(dist))
+        if dist[vertex] > 1e-8 * max(1.0, float(np.ptp(coords))):
+            raise ValueError(f"point {tuple(point)} is not a mesh vertex (nearest is {dist[vertex]:.3g} away)")
+        self._point_loads.append((np.array([vertex]), force, scale))
+
+    # ------------------------------------------------------------------ spaces and forms
+    @property
+    def space(self) -> ngs.FESpace:
+        if self._space is None:
+            self._build()
+        return self._space
+
+    def _build(self) -> None:
+        mesh, k = self.mesh, self.order
+        flags = {f"dirichlet{c}_bbnd": "|".join(b) for c, b in self._fixed.items() if b}
+        V = ngs.VectorH1(mesh, order=k, **flags)
+        W = ngs.NormalFacetSurface(mesh, order=k - 1, dirichlet_bbnd="|".join(self._rotation_fixed))
+        L = ngs.SurfaceL2(mesh, order=k - 1)
+        self._space = ngs.FESpace([V, W] + [L] * len(self._layers))
+        self.gf = ngs.GridFunction(self._space, name="shell")
+        self.gf.components[0].vec[:] = 0.0
+        for i in range(len(self._layers)):
+            self.gf.components[2 + i].Set(1.0, definedon=mesh.Boundaries(".*"))
+        # Averaged reference normals on edges: the common direction against which each element
+        # measures its normal angle (it must lie between the normals of the two neighbours).
+        self._avg_normal = ngs.GridFunction(ngs.VectorFacetSurface(mesh, order=k - 1))
+        self._avg_normal.Set(ngs.specialcf.normal(3), dual=True, definedon=mesh.Boundaries(".*"))
+        self._avg_normal_ref = ngs.GridFunction(self._avg_normal.space)
+        self._avg_normal_ref.vec.data = self._avg_normal.vec
+
+        trial = self._space.TrialFunction()
+        u, omega, lams = trial[0], trial[1].Trace(), list(trial[2:])
+        kin = self._kinematics(u, lams)
+        psi = kin["psi"]
+        energy = psi * ngs.ds
+        energy += self._edge_energy(u, omega, kin) * ngs.ds(element_boundary=True)
+        for region, load in self._surface_loads:
+            energy += -ngs.InnerProduct(load, u) * ngs.ds(definedon=mesh.Boundaries(region))
+        form = ngs.BilinearForm(self._space, symmetric=True)
+        form += ngs.Variation(energy).Compile()  # symbolic derivatives: ~15x faster assembly
+        self._form = form
+        self._scratch = ngs.GridFunction(self._space)
+        self._target = ngs.GridFunction(self._space)
+        self.free_mask = np.array(list(self._space.FreeDofs()), dtype=bool)
+        self._solver = LinearSolver(self._space.FreeDofs(), inverse=self.inverse)
+        skin = self._kinematics(self._scratch.components[0], list(self._scratch.components[2:]))
+        bad = sum(ngs.IfPos(m, 0.0, 1.0) for m in skin["margins"])
+        self._indicator = bad
+        self._point_dofs = []
+        offset = self._space.Range(0).start
+        for vertices, force, scale in self._point_loads:
+            dofs = V.GetDofNrs(ngs.NodeId(ngs.VERTEX, int(vertices[0])))
+            self._point_dofs.append((np.array(dofs) + offset, force, scale))
+
+    def _kinematics(self, u, lams) -> dict:
+        """Layer deformation gradients, energy density and moments of displacement ``u`` and
+        thickness stretches ``lams`` (trial functions or GridFunctions)."""
+        N = ngs.specialcf.normal(3)
+        NN = ngs.OuterProduct(N, N)
+        P = ngs.Id(3) - NN
+        grad_u = ngs.Grad(u).Trace() if isinstance(u, ngs.comp.ProxyFunction) else ngs.Grad(u)
+        Fm = P + grad_u
+        cof_N = ngs.Cof(Fm) * N
+        n = _normalize(cof_N)
+        C = Fm.trans * Fm
+        C_plus = ngs.Inv(C + NN) - NN
+        hesse = u.Operator("hesseboundary")
+        H_n = P * ngs.Sym((hesse.trans * n).Reshape((3, 3))) * P
+        # the shape operator and the Hessian are tangential and symmetric; NGSolve's curved-element
+        # values carry small normal parts (numerical differentiation of the element map) that
+        # would strain the thickness column of a uniformly dilated shell
+        weingarten = P * ngs.Sym(ngs.Grad(N)) * P
+        S = (n * N) * weingarten - H_n  # Fm^T grad_s n
+        lever = sum(lams) / len(lams)
+        bend_map = Fm * C_plus  # d(layer gradient)/dS, up to zeta lever and A^-1
+        mu, lam0, mat = self.mu, self.lam0, self.material
+        psi = ngs.CF(0.0)
+        dpsi_dS = ngs.CF((0.0,) * 9, dims=(3, 3))
+        membrane = ngs.CF((0.0,) * 9, dims=(3, 3))
+        # Curvature change that vanishes under uniform dilation (S = lam grad N, |cof Fm N| = lam^2)
+        # and is linear in u about the reference: the argument of the linearised edge moment.
+        curvature_change = S - ngs.sqrt(ngs.Norm(cof_N)) * weingarten
+        linear_moment = -self.thickness**3 / 12 * self._plane_stress(curvature_change, P)
+        margins = []
+        cauchy = []
+        for (zeta, w), lam3 in zip(self._layers, lams):
+            A = P + zeta * weingarten + NN
+            A_inv = ngs.Inv(A)
+            weight = 0.5 * self.thickness * w * ngs.Det(A)
+            Fq = (Fm + zeta * lever * bend_map * S) * A_inv + lam3 * ngs.OuterProduct(n, N)
+            psi = psi + weight * mat.reference_energy(Fq, mu, lam0)
+            piola = mat.first_piola(lam0 * Fq, mu) / lam0**2  # dW'/dF of the swollen reference
+            dpsi_dS = dpsi_dS + weight * zeta * lever * bend_map.trans * piola * A_inv.trans
+            membrane = membrane + weight * piola * A_inv.trans
+            margins.append(lam0**3 * ngs.Det(Fq) - 1.0)
+            cauchy.append(mat.reference_cauchy(Fq, mu, lam0))
+        return dict(psi=psi, moment=-dpsi_dS, linear_moment=linear_moment, membrane=membrane, Fm=Fm, n=n, N=N, lever=lever,
+                    margins=margins, cauchy=cauchy)
+
+    def _plane_stress(self, strain, P):
+        """Linearised drained plane-stress law of the reference state (local ``Nv``):
+        ``2 G (eps + nu / (1 - nu) tr(eps) P)``."""
+        Nv, chi, lam0 = self.material.Nv, self.material.chi, self.lam0
+        J0 = lam0**3
+        G = Nv / lam0
+        K = Nv * (1 / J0 - 1 / (3 * lam0)) + 1 / (J0 * (J0 - 1)) - 2 * chi / J0**2
+        nu = (3 * K - 2 * G) / (2 * (3 * K + G))
+        return 2 * G * (strain + nu / (1 - nu) * ngs.Trace(strain) * P)
+
+    def _edge_energy(self, u, omega, kin) -> ngs.CoefficientFunction:
+        N = kin["N"]
+        tau = ngs.specialcf.tangential(3)
+        mu_ref = ngs.Cross(N, tau)  # outward co-normal of the element in the reference
+        tau_def = _normalize(kin["Fm"] * tau)
+        mu_def = ngs.Cross(kin["n"], tau_def)
+        avg = self._avg_normal
+        avg_def = _normalize(avg - (tau_def * avg) * tau_def)
+        # both angles are measured in the plane normal to the edge (reference and deformed), so
+        # a reference edge has theta = 0 exactly even where the averaged normal is not normal to it
+        ref = self._avg_normal_ref
+        avg_ref = _normalize(ref - (tau * ref) * tau)
+        theta = ngs.acos(mu_def * avg_def) - ngs.acos(mu_ref * avg_ref) + omega * mu_ref
+        moment = kin["moment"] if self.consistent_moment else kin["linear_moment"]
+        m_nn = ngs.InnerProduct(moment * mu_ref, mu_ref)
+        h = ngs.specialcf.mesh_size
+        G = self.material.Nv / self.lam0
+        stiffness = self.penalty * self.order**2 * self.thickness**3 / 3.0 * G / h  # ~ alpha k^2 D / h
+        return m_nn * theta + 0.5 * stiffness * theta**2
+
+    # ------------------------------------------------------------------ NonlinearSystem
+    @property
+    def form(self) -> ngs.BilinearForm:
+        if self._form is None:
+            self._build()
+        return self._form
+
+    @property
+    def state(self) -> ngs.BaseVector:
+        self.form
+        return self.gf.vec
+
+    @property
+    def displacement(self) -> ngs.GridFunction:
+        self.form
+        return self.gf.components[0]
+
+    def _point_load_vector(self, out) -> None:
+        values = out.FV().NumPy()
+        values[:] = 0.0
+        for dofs, force, scale in self._point_dofs:
+            values[dofs] += (1.0 if scale is None else scale.Get()) * force
+
+    def residual(self, x, out) -> None:
+        self.form.Apply(x, out)
+        if self._point_dofs:
+            f = out.CreateVector()
+            self._point_load_vector(f)
+            out.data -= f
+
+    def tangent(self, x):
+        self.form.AssembleLinearization(x)
+        return self.form.mat
+
+    def energy(self, x=None) -> float:
+        x = self.state if x is None else x
+        value = self.form.Energy(x)
+        if self._point_dofs:
+            f = x.CreateVector()
+            self._point_load_vector(f)
+            value -= float(np.dot(f.FV().NumPy(), x.FV().NumPy()))
+        return value
+
+    def prescribed(self, out) -> None:
+        self.form
+        out[:] = 0.0
+        target = self._target
+        target.vec[:] = 0.0
+        for boundary, i, value in self._prescribed:
+            target.components[0].components[i].Set(value, ngs.BBND, definedon=self.mesh.BBoundaries(boundary))
+        out.data = target.vec
+
+    def admissible(self, x) -> bool:
+        self._scratch.vec.data = x
+        bad = ngs.Integrate(self._indicator, self.mesh, ngs.BND, order=2 * self.order + 2)
+        return bool(bad == 0.0)
+
+    def solve(self, **newton_options) -> NewtonResult:
+        """Newton at the current parameter values; raises ``NewtonError`` on failure."""
+        self.form
+        # The residual has a round-off floor from the gel's membrane stresses (~eps t) that the
+        # thin walls' bending stiffness (~t^3) turns into displacement noise ~ eps / t^2: a
+        # displacement step below 1e-8 t is converged.
+        newton_options.setdefault("xtol", max(1e-13, 1e-8 * self.thickness))
+        with ngs.TaskManager():
+            return newton(self, self._solver, **newton_options)
+
+    def save_state(self) -> np.ndarray:
+        return self.state.FV().NumPy().copy()
+
+    def restore_state(self, saved: np.ndarray) -> None:
+        self.state.FV().NumPy()[:] = saved
+
+    def update_edge_normals(self) -> None:
+        """Average the current element normals on every edge whose rotation is free, as the
+        direction the elements measure their normal angles against (the reference average is
+        kept on rotation-fixed edges, where it encodes the clamp). Call between load steps
+        when elements rotate by more than a few tens of degrees; the hybrid rotations absorb the
+        change at the next solve. Rotation-equivariant: rotating the state rotates the averages."""
+        self.form
+        N = ngs.specialcf.normal(3)
+        u = self.displacement
+        current = _normalize(ngs.Cof(ngs.Id(3) - ngs.OuterProduct(N, N) + ngs.Grad(u)) * N)
+        self._avg_normal.Set(current, dual=True, definedon=self.mesh.Boundaries(".*"))
+        if self._rotation_fixed:
+            space = self._avg_normal.space
+            region = self.mesh.BBoundaries("|".join(self._rotation_fixed))
+            for segment in region.Elements():
+                for edge in segment.edges:
+                    for dof in space.GetDofNrs(edge):
+                        self._avg_normal.vec[dof] = self._avg_normal_ref.vec[dof]
+
+    # ------------------------------------------------------------------ stability support
+    def mass_matrix(self) -> ngs.BaseMatrix:
+        """Gram matrix for eigenproblems: the displacement's L2 product per reference volume plus
+        rotary-inertia-like terms (``t^3/12``) on the rotation and thickness unknowns, so the
+        matrix is positive definite; the inertia of the tangent does not depend on it."""
+        self.form
+        trial, test = self._space.TnT()
+        t = self.thickness
+        form = ngs.BilinearForm(self._space, symmetric=True)
+        form += t * ngs.InnerProduct(trial[0], test[0]) * ngs.ds
+        form += t**3 / 12 * ngs.InnerProduct(trial[1].Trace(), test[1].Trace()) * ngs.ds(element_boundary=True)
+        for a, b in zip(trial[2:], test[2:]):
+            form += t**3 / 12 * a * b * ngs.ds
+        form.Assemble()
+        return form.mat
+
+    def integrate(self, cf, *, region: str | None = None) -> float:
+        """Integral over the reference shell volume of a field constant through the thickness
+        (``t`` times the mid-surface integral)."""
+        where = self.mesh.Boundaries(region if region is not None else ".*")
+        return self.thickness * ngs.Integrate(cf, self.mesh, ngs.BND, definedon=where, order=2 * self.order + 2)
+
+    # ------------------------------------------------------------------ outputs
+    def _state_kinematics(self) -> dict:
+        return self._kinematics(self.displacement, list(self.gf.components[2:]))
+
+    def thickness_stretch(self) -> ngs.CoefficientFunction:
+        """Mean thickness stretch from the reference (multiply by ``lam0`` for the dry state)."""
+        lams = list(self.gf.components[2:])
+        return sum(lams) / len(lams)
+
+    def membrane_force(self) -> ngs.CoefficientFunction:
+        """First-Piola membrane force per unit reference length: ``int P A^-T dzeta`` (3x3)."""
+        return self._state_kinematics()["membrane"]
+
+    def bending_moment(self) -> ngs.CoefficientFunction:
+        """Bending moment per unit reference length, ``-dpsi/dS`` (tangential 3x3, reference frame)."""
+        return self._state_kinematics()["moment"]
+
+    def layer_cauchy(self, layer: int) -> ngs.CoefficientFunction:
+        """Cauchy stress (3x3) at through-thickness point ``layer`` (0 = most negative zeta)."""
+        if not 0 <= layer < len(self._layers):
+            raise ValueError(f"layer must be in [0, {len(self._layers) - 1}], got {layer!r}")
+        return self._state_kinematics()["cauchy"][layer]
+
+    def fields(self) -> dict[str, ngs.CoefficientFunction]:
+        """Named fields for VTK output."""
+        N = self.membrane_force()
+        return {"displacement": self.displacement, "thickness_stretch": self.thickness_stretch(),
+                "membrane_trace": ngs.Trace(N), "moment_trace": ngs.Trace(self.bending_moment())}

@@ -1,0 +1,134 @@
+"""Shell against 3D thin solid against axisymmetric solid: speed against error on one cap case,
+and the thin-plate (t/R = 1e-3) refinement study of the shell.
+
+Cap (MODEL.md scene A geometry): base radius R = 1, apex height H = 0.3, mid-surface radius
+r = 1.817, thickness ``t`` (default 0.08, t/r = 0.044), Nv = 1e-3, chi = 0.5, base clamped,
+swelling step mu = -0.05 -> -0.049 from the free-swollen reference at -0.05. Quantity: the apex
+rise. Reference: the axisymmetric section at h = t/16 with 8 layers (its own error is estimated
+from the h = t/8, 4 layers value and printed). Each model at 2-3 resolutions reports unknowns,
+wall time (mesh excluded, ramp included) and the relative error.
+
+Thin plate: clamped disk R = 1, t = 1e-3, uniform pressure giving w = 0.01 t; centre
+deflection against Kirchhoff's p R^4 / (64 D) with the drained D, under h-refinement.
+
+    python scripts/bench_shell.py --out results/bench_shell [--quick] [--thickness 0.08]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+
+import ngsolve as ngs
+
+from geometries import cap_midsurface, cap_section, cap_solid, plate_midsurface
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, ramp
+from ngsgel.output import History, Progress, RunDirectory
+from ngsgel.shell import GelShell, plate_bending_stiffness
+
+GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
+MU0, MU1 = -0.05, -0.049
+H = 0.3
+
+
+def cap_section_rise(t: float, *, maxh: float, layers: int) -> tuple[float, int]:
+    lam0 = GEL.lam_free(MU0)
+    bundle = cap_section(H=H, t=t, maxh=maxh, layers=layers)
+    prob = EquilibriumProblem(bundle.mesh, kinematics=Axisymmetric(), materials=GEL, lam0=lam0, mu=MU0)
+    prob.fix("base")
+    prob.fix("axis", "r")
+    ramp(prob, prob.mu, MU1)
+    return prob.displacement(bundle.mesh(0.0, H))[1], prob.space.ndof
+
+
+def cap_solid_rise(t: float, *, maxh: float, layers: int) -> tuple[float, int]:
+    lam0 = GEL.lam_free(MU0)
+    bundle = cap_solid(H=H, t=t, maxh=maxh, layers=layers)
+    prob = EquilibriumProblem(bundle.mesh, kinematics=Solid3D(), materials=GEL, lam0=lam0, mu=MU0)
+    prob.fix("base")
+    ramp(prob, prob.mu, MU1)
+    return prob.displacement(bundle.mesh(0.0, 0.0, H))[2], prob.space.ndof
+
+
+def cap_shell_rise(t: float, *, maxh: float, order: int = 3) -> tuple[float, int]:
+    # a wide apex patch keeps the surface mesh uniform (the patch exists for point loads)
+    lam0 = GEL.lam_free(MU0)
+    bundle = cap_midsurface(H=H, maxh=maxh, curve_order=order, apex_radius=0.4)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=lam0, thickness=t, mu=MU0, order=order)
+    shell.clamp("base")
+    ramp(shell, shell.mu, MU1)
+    return shell.displacement(bundle.mesh(0.0, 0.0, H, ngs.BND))[2], shell.space.ndof
+
+
+def thin_plate_deflection(*, t: float, maxh: float, order: int = 3) -> tuple[float, int]:
+    """Centre deflection over Kirchhoff's value, clamped disk, w = 0.01 t."""
+    lam0 = GEL.lam_free(0.0)
+    bundle = plate_midsurface(R=1.0, maxh=maxh, curve_order=order)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=lam0, thickness=t, mu=0.0, order=order)
+    shell.clamp("rim")
+    D = plate_bending_stiffness(GEL, lam0=lam0, thickness=t)
+    p = 0.64 * D * t
+    shell.add_surface_load("gel", (0.0, 0.0, p))
+    shell.solve()
+    return shell.displacement(bundle.mesh(0.0, 0.0, 0.0, ngs.BND))[2] / (p / (64 * D)), shell.space.ndof
+
+
+def timed(f, *args, **kwargs):
+    start = time.perf_counter()
+    value = f(*args, **kwargs)
+    return value, time.perf_counter() - start
+
+
+def run(out: str, *, quick: bool = False, t: float = 0.08) -> dict:
+    run_dir = RunDirectory(out, params={"H": H, "t": t, "Nv": GEL.Nv, "chi": GEL.chi, "mu0": MU0,
+                                        "mu1": MU1, "quick": quick})
+    progress = Progress("bench_shell")
+    (reference, ref_ndof), ref_time = timed(cap_section_rise, t, maxh=t / 16, layers=8)
+    (coarser_ref, _), _ = timed(cap_section_rise, t, maxh=t / 8, layers=4)
+    progress(f"reference: section h=t/16, 8 layers: apex rise {reference:.7f} ({ref_ndof} dofs, "
+             f"{ref_time:.1f}s); h=t/8, 4 layers differs by {abs(coarser_ref / reference - 1):.2%}")
+    cases = [("shell", cap_shell_rise, dict(maxh=h)) for h in ((0.4, 0.2) if quick else (0.4, 0.2, 0.1))]
+    cases += [("axisymmetric", cap_section_rise, dict(maxh=t / f, layers=4)) for f in (1, 2, 4)]
+    cases += [("solid3d", cap_solid_rise, dict(maxh=h, layers=2)) for h in ((0.3, 0.15) if quick else (0.3, 0.15, 0.1))]
+    rows = []
+    with History(run_dir.file("cap.csv")) as history:
+        for model, f, options in cases:
+            (rise, ndof), wall = timed(f, t, **options)
+            row = {"model": model, **{k: options.get(k, "") for k in ("maxh", "layers")}, "ndof": ndof,
+                   "seconds": wall, "apex_rise": rise, "rel_error": abs(rise / reference - 1)}
+            history.append(row)
+            rows.append(row)
+            progress(f"{model:12s} {options}: {ndof:6d} dofs {wall:7.1f}s  rise {rise:.7f}  "
+                     f"error {row['rel_error']:.2%}")
+    plate = []
+    with History(run_dir.file("thin_plate.csv")) as history:
+        for maxh in ((0.5, 0.25) if quick else (0.5, 0.25, 0.125)):
+            (ratio, ndof), wall = timed(thin_plate_deflection, t=1e-3, maxh=maxh)
+            row = {"t": 1e-3, "maxh": maxh, "ndof": ndof, "seconds": wall, "w_over_kirchhoff": ratio,
+                   "rel_error": abs(ratio - 1)}
+            if plate:
+                row["rate"] = math.log(plate[-1]["rel_error"] / row["rel_error"], 2)
+            history.append(row)
+            plate.append(row)
+            progress(f"thin plate t=1e-3 h={maxh}: {ndof} dofs {wall:.1f}s  w/w_K = {ratio:.7f}"
+                     + (f"  rate {row['rate']:.2f}" if "rate" in row else ""))
+    return {"reference": reference, "cap": rows, "plate": plate}
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default="results/bench_shell", help="output folder")
+    parser.add_argument("--quick", action="store_true", help="two resolutions per model (also set by env CI)")
+    parser.add_argument("--thickness", type=float, default=0.08, help="cap wall thickness (default 0.08)")
+    args = parser.parse_args(argv)
+    if not 0 < args.thickness < 0.5:
+        raise ValueError(f"--thickness must be in (0, 0.5), got {args.thickness}")
+    result = run(args.out, quick=args.quick or bool(os.environ.get("CI")), t=args.thickness)
+    print(f"results in {args.out}")
+    return result
+
+
+if __name__ == "__main__":
+    main()
