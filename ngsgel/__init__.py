@@ -12,6 +12,7 @@ from .kinematics import Axisymmetric, Kinematics, PlaneStrain, Solid3D, Spherica
 from .materials import FloryRehnerGel, Material, NeoHookeanFilm
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
 from .problem import EquilibriumProblem, GelBody
+from .shell import GelShell
 from .stability import linear_buckling, load_rate, negative_count, random_field, seed_imperfection, spectrum
 from .stepping import RampError, RampResult, ramp
 from .transient import StepRecord, TransientError, TransientProblem, TransientResult, march, time_ramp
@@ -20,7 +21,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Axisymmetric", "Checkpoint", "ContinuationError", "EquilibriumProblem", "Event", "FloryRehnerGel",
-    "GelBody", "Kinematics", "LinearSolver", "Material", "NeoHookeanFilm", "NewtonError", "NewtonResult",
+    "GelBody", "GelShell", "Kinematics", "LinearSolver", "Material", "NeoHookeanFilm", "NewtonError", "NewtonResult",
     "PathPoint", "PathResult", "PlaneStrain", "RampError", "RampResult", "Solid3D", "SphericalSymmetric",
     "Stabilization", "StabilityOptions", "StepRecord", "TransientError", "TransientProblem",
     "TransientResult", "follow_path", "kinematics_by_name", "linear_buckling", "load_rate", "march",

@@ -13,7 +13,7 @@ from netgen import occ
 
 import bench_shell  # scripts/ (tests/conftest.py): the benchmark's cases are the reference cases
 from geometries import plate_midsurface
-from ngsgel import FloryRehnerGel, linear_buckling, ramp, spectrum
+from ngsgel import FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp, spectrum
 from ngsgel.shell import GelShell
 
 thin_plate_deflection = bench_shell.thin_plate_deflection
@@ -134,6 +134,14 @@ def test_cap_swelling_agrees_with_the_axisymmetric_solid(t):
     assert shell == pytest.approx(solid, rel=0.01)
 
 
+@pytest.mark.slow  # ~2 min; scripts/bench_shell.py runs it
+def test_microlens_point_load_stiffness_matches_reissner():
+    # t/r = 0.005 cap, apex point force, linear range: Reissner's F/w = 4 E t^2/(r sqrt(3(1-nu^2))).
+    # Measured 1.0042 (apex h = 0.02, 38919 dofs) and 1.0028 (h = 0.01).
+    ratio, _ = bench_shell.apex_stiffness_over_reissner(maxh=0.2, apex_maxh=0.02)
+    assert ratio == pytest.approx(1.0, abs=0.01)
+
+
 # ----------------------------------------------------------------------------- consistency
 def random_state(shell: GelShell, *, amplitude: float, seed: int) -> None:
     """A smooth non-trivial state: displacement with bending and stretching, thickness
@@ -212,13 +220,11 @@ def test_stability_spectrum_of_a_stable_plate():
     assert np.all(spec.eigenvalues > 0)
 
 
-def test_swelling_buckling_of_a_clamped_plate_matches_the_classical_load():
-    # A clamped disk swelling at fixed rim carries N = E t/(1 - nu) (c - 1) of compression
-    # (c = lam_free(mu)/lam0, plane stress, drained E and nu); the axisymmetric mode buckles at
-    # N = 14.682 D / R^2 (Timoshenko & Gere), i.e. at c - 1 = 14.682 t^2 / (12 (1 + nu) R^2).
-    # linear_buckling on the shell (stability tools, geometric stiffness of the gel membrane) must
-    # find that mu: measured +1.3 % (h = 0.5) and +0.6 % (h = 0.25) of mu_cr - mu0.
-    t = 0.02
+def swelling_plate(t: float = 0.02) -> tuple[GelShell, float]:
+    """Clamped disk R = 1 at MU0 and the classical critical mu of its swelling buckling: the
+    fixed rim turns free swelling into N = E t/(1 - nu) (c - 1) of compression (c =
+    lam_free(mu)/lam0; plane stress, drained E and nu), and the axisymmetric mode buckles at
+    N = 14.682 D / R^2 (Timoshenko & Gere), i.e. at c - 1 = 14.682 t^2 / (12 (1 + nu) R^2)."""
     lam0 = GEL.lam_free(MU0)
     nu = GEL.drained_poisson_ratio(lam0)
     mu_cr = GEL.mu_free(lam0 * (1 + 14.682 * t**2 / (12 * (1 + nu))))
@@ -226,8 +232,48 @@ def test_swelling_buckling_of_a_clamped_plate_matches_the_classical_load():
     shell = GelShell(bundle.mesh, material=GEL, lam0=lam0, thickness=t, mu=MU0)
     shell.clamp("rim")
     shell.solve()
+    return shell, mu_cr
+
+
+def test_outputs_of_a_swelling_clamped_plate():
+    # Below the critical mu the plate stays flat and uniformly compressed: membrane force
+    # N = -E t/(1 - nu) (c - 1) P (linear plane stress, c - 1 ~ 2e-4), no moment, and the plane
+    # stress thickness strain (1 + nu)/(1 - nu) (c - 1) (drained E, nu).
+    shell, mu_cr = swelling_plate()
+    mu = MU0 + 0.5 * (mu_cr - MU0)
+    shell.mu.Set(mu)
+    shell.solve()
+    lam0 = shell.lam0
+    c = GEL.lam_free(mu) / lam0
+    G, nu = GEL.shear_modulus(lam0), GEL.drained_poisson_ratio(lam0)
+    expected_N = -2 * G * (1 + nu) / (1 - nu) * shell.thickness * (c - 1)
+    point = shell.mesh(0.3, 0.2, 0.0, ngs.BND)
+    N = np.array(shell.membrane_force()(point)).reshape(3, 3)
+    assert np.allclose(N, expected_N * np.diag([1.0, 1.0, 0.0]), rtol=0, atol=2e-3 * abs(expected_N))
+    M = np.array(shell.bending_moment()(point))
+    assert np.max(np.abs(M)) < 1e-8 * abs(expected_N) * shell.thickness
+    lam3 = shell.thickness_stretch()(point)
+    assert lam3 - 1 == pytest.approx((1 + nu) / (1 - nu) * (c - 1), rel=2e-3)
+
+
+def test_swelling_buckling_of_a_clamped_plate_matches_the_classical_load():
+    # linear_buckling on the shell (geometric stiffness of the gel membrane): measured +1.3 %
+    # (h = 0.5) and +0.6 % (h = 0.25) of mu_cr - mu0.
+    shell, mu_cr = swelling_plate()
     result = linear_buckling(shell, shell.mu, increment=mu_cr - MU0, count=2)
     assert (result.parameters[0] - MU0) / (mu_cr - MU0) == pytest.approx(1.0, abs=0.02)
+
+
+def test_follow_path_locates_the_swelling_bifurcation():
+    # The continuation driver with stability monitoring on the shell: the flat state loses
+    # stability by a bifurcation (one negative eigenvalue) at the classical mu (measured +1.0 %).
+    shell, mu_cr = swelling_plate()
+    span = mu_cr - MU0
+    path = follow_path(shell, shell.mu, method="natural", step=0.6 * span, target=MU0 + 1.2 * span,
+                       stability=StabilityOptions(eigenvalues=2, tol=1e-2 * span))
+    (event,) = path.events
+    assert event.kind == "bifurcation" and (event.negative_before, event.negative_after) == (0, 1)
+    assert (event.parameter - MU0) / span == pytest.approx(1.0, abs=0.02)
 
 
 def test_bad_input_raises():
