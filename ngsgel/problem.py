@@ -8,7 +8,7 @@ section 2), for films their stress-free bonded state.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from numbers import Real
 
@@ -69,6 +69,7 @@ class GelBody:
         self.quadrature_order = quadrature_order
         self._fixed: dict[int, list[str]] = {i: [] for i in range(len(kinematics.components))}
         self._prescribed: list[_Prescribed] = []
+        self._surface_energies: list[tuple[str, Callable]] = []
         self._space = None
 
     # ---------------------------------------------------------- boundary conditions
@@ -104,6 +105,24 @@ class GelBody:
         (i,) = self._components(component)
         self._fixed[i].append(boundary)
         self._prescribed.append(_Prescribed(boundary, i, _as_cf(value)))
+
+    def add_surface_energy(self, boundary: str, density: Callable) -> None:
+        """Extra energy on ``boundary``: ``density(u)`` is a CoefficientFunction of the
+        displacement (trial function) per unit reference boundary measure, e.g. a contact penalty
+        (``ngsgel.contact``). It enters the u-equation of equilibrium and transient problems."""
+        self._check_open()
+        self._check_boundary(boundary)
+        if not callable(density):
+            raise ValueError(f"density must be a callable u -> CoefficientFunction, got {type(density).__name__}")
+        self._surface_energies.append((boundary, density))
+
+    def with_surface_energies(self, energy, u):
+        """``energy`` plus the surface energies declared with ``add_surface_energy``."""
+        w = self.kinematics.volume_weight()
+        rules = {} if self.quadrature_order is None else quadrature_rules(self.quadrature_order)
+        for boundary, density in self._surface_energies:
+            energy = energy + (w * density(u)) * ngs.ds(definedon=self.mesh.Boundaries(boundary), intrules=rules)
+        return energy
 
     # ---------------------------------------------------------------- space, fields
     @property
@@ -190,6 +209,7 @@ class EquilibriumProblem(GelBody):
         u = V.TrialFunction()
         Fp = self.deformation_gradient(u)
         energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, self.mu, self.lam0))
+        energy = self.with_surface_energies(energy, u)
         w = self.kinematics.volume_weight()
         for boundary, t in self._tractions:
             energy += -(w * ngs.InnerProduct(t, u)) * ngs.ds(definedon=self.mesh.Boundaries(boundary))

@@ -1,0 +1,113 @@
+"""Contact of a free surface with a rigid plane (penalty) and checks that surfaces do not
+interpenetrate.
+
+Symmetric self-contact. A crease centred on a mirror-symmetry line (a plane-strain cell with
+roller sides) closes onto its own mirror image: the two crease faces meet exactly on the
+symmetry plane. Self-contact of the surface then *is* contact of the surface with that rigid
+plane, frictionless because the mirror image slides with it. ``plane_contact`` gives the penalty
+energy of that contact,
+
+    W_c = k/2 <g>_+^2   per unit reference surface,   g = side (position - (X + u)_c),
+
+added to the gel's energy with ``GelBody.add_surface_energy`` (the classical penalty method,
+Wriggers, *Computational Contact Mechanics*, ch. 6): the contact pressure is ``k <g>_+`` and the
+penetration at pressure ``p`` is ``p / k``, so ``k`` must be large against the stiffness of the
+surface elements (``G / h``) for the penetration to be a small fraction of ``h``. The
+checks here measure it after every step.
+
+NGSolve's ``ContactBoundary`` (gap function between two boundary regions updated on the
+deformed mesh) is the tool for general self-contact, where creases form anywhere along the
+surface; it is not used here (see docs/creases.md).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import ngsolve as ngs
+
+__all__ = ["plane_contact", "SurfaceLine", "surface_line", "self_intersections"]
+
+
+def plane_contact(*, component: int, position: float, side: int, penalty: float) -> Callable:
+    """Penalty density ``u -> k/2 <g>_+^2`` keeping coordinate ``component`` (0 = x, 1 = y, 2 = z)
+    of the deformed surface at ``>= position`` (``side = +1``) or ``<= position`` (``side = -1``)."""
+    if component not in (0, 1, 2):
+        raise ValueError(f"component must be 0, 1 or 2, got {component!r}")
+    if side not in (1, -1):
+        raise ValueError(f"side must be +1 or -1, got {side!r}")
+    if not (isinstance(penalty, (int, float)) and math.isfinite(penalty) and penalty > 0):
+        raise ValueError(f"penalty must be a finite number > 0, got {penalty!r}")
+    if not (isinstance(position, (int, float)) and math.isfinite(position)):
+        raise ValueError(f"position must be a finite number, got {position!r}")
+    coordinate = (ngs.x, ngs.y, ngs.z)[component]
+
+    def density(u):
+        gap = side * (position - (coordinate + u[component]))  # > 0: penetration
+        return 0.5 * penalty * ngs.IfPos(gap, gap * gap, 0.0)
+
+    return density
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceLine:
+    """Points along a 2D boundary curve, ordered by the reference x coordinate: ``reference``
+    and ``current`` positions, shape ``(n, 2)``; ``edge_length`` the shortest boundary edge."""
+
+    reference: np.ndarray
+    current: np.ndarray
+    edge_length: float
+
+
+def surface_line(displacement: ngs.GridFunction, mesh: ngs.Mesh, boundary: str, *,
+                 points_per_edge: int = 4) -> SurfaceLine:
+    """The deformed curve of ``boundary`` (2D meshes, a boundary that is a graph over x): each
+    boundary edge sampled at ``points_per_edge`` equal parameter steps (P2 displacements bend
+    the edges between the vertices), plus the last vertex."""
+    if mesh.dim != 2:
+        raise ValueError(f"surface_line needs a 2D mesh, got dim={mesh.dim}")
+    if not isinstance(points_per_edge, int) or points_per_edge < 1:
+        raise ValueError(f"points_per_edge must be an integer >= 1, got {points_per_edge!r}")
+    names = set(boundary.split("|"))
+    edges = []
+    for el in mesh.Elements(ngs.BND):
+        if el.mat in names:
+            a, b = (np.array(mesh[v].point) for v in el.vertices)
+            edges.append((a, b) if a[0] <= b[0] else (b, a))
+    if not edges:
+        raise ValueError(f"boundary {boundary!r} has no edges; the mesh has {sorted(set(mesh.GetBoundaries()))}")
+    edges.sort(key=lambda e: e[0][0])
+    s = np.arange(points_per_edge) / points_per_edge
+    points = np.vstack([a + np.outer(s, b - a) for a, b in edges] + [edges[-1][1][None, :]])
+    values = np.asarray(displacement(mesh(points[:, 0], points[:, 1])))
+    lengths = [float(np.linalg.norm(b - a)) for a, b in edges]
+    return SurfaceLine(reference=points, current=points + values, edge_length=min(lengths))
+
+
+def self_intersections(polyline: np.ndarray, *, tolerance: float = 0.0) -> int:
+    """Number of pairs of non-adjacent segments of the open ``polyline`` (shape ``(n, 2)``)
+    that cross each other by more than ``tolerance`` (a length): a surface that passes through
+    itself. Touching segments (a closed crease) do not count."""
+    p = np.asarray(polyline, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] < 2:
+        raise ValueError(f"polyline must have shape (n >= 2, 2), got {p.shape}")
+    a, b = p[:-1], p[1:]
+    d = b - a
+    n = len(a)
+    i, j = np.triu_indices(n, k=2)
+    r, s = d[i], d[j]
+    denom = r[:, 0] * s[:, 1] - r[:, 1] * s[:, 0]
+    qp = a[j] - a[i]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (qp[:, 0] * s[:, 1] - qp[:, 1] * s[:, 0]) / denom
+        v = (qp[:, 0] * r[:, 1] - qp[:, 1] * r[:, 0]) / denom
+    len_r = np.linalg.norm(r, axis=1)
+    len_s = np.linalg.norm(s, axis=1)
+    # strictly inside both segments by more than ``tolerance``
+    mt = np.where(len_r > 0, tolerance / np.where(len_r > 0, len_r, 1), np.inf)
+    mv = np.where(len_s > 0, tolerance / np.where(len_s > 0, len_s, 1), np.inf)
+    crossing = (denom != 0) & (t > mt) & (t < 1 - mt) & (v > mv) & (v < 1 - mv)
+    return int(np.count_nonzero(crossing))

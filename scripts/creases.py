@@ -1,0 +1,560 @@
+"""Creases on a thick gel layer during transient swelling (MODEL.md scene E), plane strain.
+
+A layer of thickness ``H`` (swollen reference at ``mu0``, stretch ``lam0`` from dry) is bonded to a
+rigid substrate and immersed at its top at t = 0 (``mu`` ramped from ``mu0`` to 0 over ``--ramp``).
+The computational cell is ``[0, W] x [0, H]`` with roller sides, which are mirror planes (zero
+flux, no shear): the cell is half a period ``2 W`` of a periodic crease pattern. A surface
+imperfection ``-a cos(pi x / W)`` puts a shallow trough on the left mirror line, where a crease
+nucleates. The crease faces meet on the mirror line: their self-contact is contact with that plane
+(penalty, ``ngsgel.contact``); every step checks that the surface neither crosses the mirror planes
+(beyond the penalty's penetration, reported) nor itself.
+
+Per run (``--out``): step history (``history.csv``: time, dt, Newton, solvent uptake, balance
+error, swollen depth, surface-layer stretch ratio, groove and crease depth, contact length,
+penetration, self-crossings, creases and spacing of the mirrored profile), the crease onset
+(first step with the faces in contact) and the state there (``summary.json``), surface profiles
+and figures, and a VTK series.
+
+``--equilibrium`` runs the quasi-static counterpart instead (``mu`` homogeneous, raised
+slowly): the linear (wrinkling) threshold of the flat layer from the exact inertia of the tangent
+at the closed-form homogeneous states (bisection in ``mu``), on a list of meshes, and the crease
+threshold (first contact) of the imperfect layer for a list of amplitudes. ``--study`` runs the
+transient onset for several meshes, time-step limits and amplitudes with wall times.
+
+    python scripts/creases.py --out results/creases [--quick] [--equilibrium] [--study]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import ngsolve as ngs
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+from geometries.layers import layer_plane  # noqa: E402
+from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain  # noqa: E402
+from ngsgel.contact import plane_contact, self_intersections, surface_line  # noqa: E402
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
+from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
+from ngsgel.stability import free_matrix, negative_count  # noqa: E402
+from ngsgel.stepping import RampError, ramp  # noqa: E402
+from scipy.optimize import brentq  # noqa: E402
+from ngsgel.transient import TransientError, TransientProblem, march, time_ramp  # noqa: E402
+
+BIOT_RATIO = 3.383  # Biot (1963): incompressible neo-Hookean half-space, plane strain, lam2/lam1 at wrinkling
+CREASE_RATIO = 2.4  # Hong, Zhao & Suo (2009): energetic crease threshold, lam2/lam1 (strain 0.35)
+
+
+@dataclass
+class Setup:
+    """Scene parameters (lengths in units of the reference thickness ``H``)."""
+
+    Nv: float = 1e-3
+    chi: float = 0.5
+    mu0: float = -0.5
+    thickness: float = 1.0
+    width: float = 0.2
+    amplitude: float = 0.01  # of the trough, as a fraction of the width W
+    top_h: float = 0.01  # element size on the surface
+    maxh: float = 0.05  # element size in the bulk
+    penalty: float = 1e3  # contact stiffness in units of G / top_h
+    ramp: float = 1e-5  # duration of the immersion ramp
+    threads: bool = False  # NGSolve TaskManager (on a shared 2-core machine it was slower)
+    viscosity: float = 1e-3  # pseudo-viscous stabiliser eta / G (time units H^2/D, per unit area)
+
+    def check(self) -> None:
+        if not (isinstance(self.viscosity, (int, float)) and math.isfinite(self.viscosity) and self.viscosity >= 0):
+            raise ValueError(f"viscosity must be a finite number >= 0, got {self.viscosity!r}")
+        for name in ("Nv", "thickness", "width", "top_h", "maxh", "penalty", "ramp"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        if not 0 <= self.amplitude < 0.5:
+            raise ValueError(f"amplitude must be in [0, 0.5) (a fraction of the width), got {self.amplitude!r}")
+        if not self.mu0 < 0:
+            raise ValueError(f"mu0 must be < 0 (dry-ish start; the bath is at mu = 0), got {self.mu0!r}")
+        if not self.top_h <= self.width / 4:
+            raise ValueError(f"top_h must be <= width/4 = {self.width / 4:g}, got {self.top_h!r}")
+        if not self.top_h <= self.maxh:
+            raise ValueError(f"top_h must be <= maxh = {self.maxh:g}, got {self.top_h!r}")
+        FloryRehnerGel(Nv=self.Nv, chi=self.chi).lam_free(self.mu0)  # raises ValueError on mu0
+
+    @property
+    def gel(self) -> FloryRehnerGel:
+        return FloryRehnerGel(Nv=self.Nv, chi=self.chi)
+
+    @property
+    def lam0(self) -> float:
+        """Stretch of the reference (free swelling at ``mu0``) from the dry state."""
+        return self.gel.lam_free(self.mu0)
+
+    def ratio(self, mu: float) -> float:
+        """Thickness over lateral stretch of the laterally constrained layer at ``mu``."""
+        return self.gel.lam_constrained(mu, self.lam0) / self.lam0
+
+    def mesh(self, *, imperfect: bool = True) -> ngs.Mesh:
+        a = self.amplitude * self.width if imperfect else 0.0
+        return layer_plane(width=self.width, thickness=self.thickness, maxh=self.maxh, top_maxh=self.top_h,
+                           amplitude=-a, wavelength=2 * self.width if a else None).mesh
+
+    def add_contact(self, prob) -> None:
+        k = self.penalty * self.gel.shear_modulus(self.lam0) / self.top_h
+        prob.add_surface_energy("top", plane_contact(component=0, position=0.0, side=1, penalty=k))
+        prob.add_surface_energy("top", plane_contact(component=0, position=self.width, side=-1, penalty=k))
+
+
+# ----------------------------------------------------------------------------- diagnostics
+
+
+def surface_state(prob, setup: Setup) -> dict:
+    """Geometry of the deformed surface: crease (contact) on either mirror line, groove depth,
+    penetration of the mirror planes, self-crossings, creases of the mirrored profile."""
+    line = surface_line(prob.displacement, prob.mesh, "top")
+    X, x, y = line.reference[:, 0], line.current[:, 0], line.current[:, 1]
+    W = setup.width
+    out = {"penetration": max(0.0, -float(x.min()), float(x.max()) - W) / line.edge_length,
+           "self_crossings": self_intersections(line.current)}
+    for side, inner, plane in (("left", X > 0, x <= 0.0), ("right", X < W, x >= W)):
+        tip = 0 if side == "left" else -1
+        touching = inner & plane
+        out[f"contact_points_{side}"] = int(np.count_nonzero(touching))
+        out[f"crease_depth_{side}"] = float(y[touching].max() - y[tip]) if touching.any() else 0.0
+        out[f"tip_y_{side}"] = float(y[tip])
+    out["groove_depth"] = float(y.max() - y[0])
+    # mirrored profile over one period [-W, W] (x increasing where the surface is a graph)
+    xs, ys = [], []
+    for xi, yi in zip(np.clip(x, 0.0, W), y):  # the part of the surface that is a graph over x
+        if not xs or xi > xs[-1] + 1e-12 * W:
+            xs.append(xi)
+            ys.append(yi)
+    xs, ys = np.array(xs), np.array(ys)
+    xm, ym = np.concatenate([-xs[:0:-1], xs]), np.concatenate([ys[:0:-1], ys])
+    creases = crease_positions(ym, xm, relative_depth=0.1)
+    out["creases_per_period"] = int(creases.positions.size)
+    out["crease_spacing"] = float(creases.mean_spacing) if creases.positions.size >= 2 else 2 * W
+    out["profile"] = (x, y)
+    return out
+
+
+def swelling_state(prob, setup: Setup, n: int = 201) -> dict:
+    """Away from the crease (x = W/2): depth of the swollen zone (``mu`` above ``mu0 / 2``), in
+    reference and current lengths, and the thickness-over-lateral stretch ratio at the surface
+    and averaged over the swollen zone (stretches from dry: ``lam0 F'``)."""
+    H, W = setup.thickness, setup.width
+    eps = 1e-6 * H
+    F = prob.deformation_gradient(prob.displacement)
+    ratio_cf = F[1, 1] / F[0, 0]
+    start, end = (W / 2, eps), (W / 2, H - eps)
+    mu = sample_on_line(prob.chemical_potential, prob.mesh, start=start, end=end, n=n)
+    ratio = sample_on_line(ratio_cf, prob.mesh, start=start, end=end, n=n).values
+    uy = sample_on_line(prob.displacement, prob.mesh, start=start, end=end, n=n).values[:, 1]
+    Y = mu.parameter + eps
+    half = setup.mu0 / 2
+    wet = mu.values > half
+    if not wet.any():
+        return {"swollen_depth": 0.0, "swollen_depth_current": 0.0, "surface_ratio": float(ratio[-1]),
+                "skin_ratio": float(ratio[-1])}
+    i = int(np.argmax(wet))  # first wet sample from the bottom
+    if i == 0:
+        Yf = 0.0
+    else:
+        Yf = float(np.interp(half, [mu.values[i - 1], mu.values[i]], [Y[i - 1], Y[i]]))
+    yf = Yf + float(np.interp(Yf, Y, uy))
+    return {"swollen_depth": H - Yf, "swollen_depth_current": (H + uy[-1]) - yf,
+            "surface_ratio": float(ratio[-1]), "skin_ratio": float(ratio[wet].mean())}
+
+
+# ----------------------------------------------------------------------------- transient run
+
+
+@contextlib.contextmanager
+def _nothing():
+    yield
+
+
+class _Stop(Exception):
+    """Raised from ``on_step`` to end the march once the run has seen what it needs."""
+
+
+def build_transient(setup: Setup) -> TransientProblem:
+    setup.check()
+    gel = setup.gel
+    prob = TransientProblem(setup.mesh(), kinematics=PlaneStrain(), materials=gel, lam0=setup.lam0, mu0=setup.mu0,
+                            viscosity=setup.viscosity * gel.shear_modulus(setup.lam0))
+    prob.fix("bottom")
+    prob.fix("left|right", "x")
+    setup.add_contact(prob)
+    prob.immerse("top", time_ramp(prob.t, start=setup.mu0, end=0.0, duration=setup.ramp))
+    return prob
+
+
+def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: float | None = None,
+                  after_onset: float = 1.5, pictures: int = 6, vtk: bool = True, quiet: bool = False) -> dict:
+    """March until ``t_end`` or ``after_onset`` times the crease onset time, whichever is first."""
+    setup.check()
+    if not t_end > setup.ramp:
+        raise ValueError(f"t_end must be > ramp = {setup.ramp:g}, got {t_end!r}")
+    if not after_onset >= 1:
+        raise ValueError(f"after_onset must be >= 1, got {after_onset!r}")
+    run_dir = RunDirectory(out, params={**setup.__dict__, "lam0": setup.lam0, "t_end": t_end, "dt_max": dt_max,
+                                        "after_onset": after_onset,
+                                        "ratio_final_equilibrium": setup.ratio(0.0)}) if out else None
+    progress = Progress("creases") if not quiet else (lambda msg: None)
+    wall0 = time.perf_counter()
+    prob = build_transient(setup)
+    prob.form
+    ndof = prob.mixed_space.ndof
+    series = VTKSeries(prob.mesh, prob.fields(), run_dir.file("creases")) if (run_dir and vtk) else None
+    if series:
+        series.write(0.0)
+    outputs = list(np.geomspace(max(10 * setup.ramp, 1e-4), t_end, 12)[:-1])
+    rows, profiles = [], {}
+    state = {"onset": None, "stop_at": t_end, "max_penetration": 0.0, "max_crossings": 0, "dissipation": 0.0,
+             "interior": None}
+    history = History(run_dir.file("history.csv")) if run_dir else None
+
+    def on_step(p, rec) -> None:
+        surf = surface_state(p, setup)
+        swell = swelling_state(p, setup)
+        x, y = surf.pop("profile")
+        state["dissipation"] += p.viscous_dissipation()
+        row = {**rec.row(), **swell, **surf, "viscous_dissipation": state["dissipation"], "sqrt_t": math.sqrt(rec.time), "wall": time.perf_counter() - wall0}
+        rows.append(row)
+        if history:
+            history.append(row)
+        state["max_penetration"] = max(state["max_penetration"], surf["penetration"])
+        state["max_crossings"] = max(state["max_crossings"], surf["self_crossings"])
+        creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
+        interior = surf["self_crossings"] > 0
+        if interior and state["interior"] is None:
+            # crease faces met away from the mirror lines, where no contact is modelled: the
+            # surface passed through itself within this step; stop here
+            state["interior"] = row
+            state["stop_at"] = rec.time
+            progress(f"INTERIOR CREASE (faces met off the mirror lines) at t = {rec.time:.4e}: swollen depth "
+                     f"{swell['swollen_depth']:.4f}; stopping, self-contact there is not modelled")
+            profiles[rec.time] = (x, y)
+            if series:
+                series.write(rec.time)
+            raise _Stop()
+        if creased and state["onset"] is None:
+            state["onset"] = row
+            state["stop_at"] = min(t_end, after_onset * rec.time)
+            profiles[rec.time] = (x, y)
+            progress(f"CREASE ONSET at t = {rec.time:.4e}: swollen depth {swell['swollen_depth']:.4f}, "
+                     f"surface ratio {swell['surface_ratio']:.3f}, skin ratio {swell['skin_ratio']:.3f}")
+        if rec.output or (state["onset"] is not None and rec.time >= state["stop_at"]):
+            profiles[rec.time] = (x, y)
+            if series:
+                series.write(rec.time)
+        progress(f"t = {rec.time:9.3e} dt = {rec.dt:8.2e} N {rec.iterations:2d} depth {swell['swollen_depth']:.3f} "
+                 f"groove {surf['groove_depth']:.4f} crease {surf['crease_depth_left']:.4f} "
+                 f"pen {surf['penetration']:.1e} bal {rec.relative_balance_error:.1e}")
+        if state["onset"] is not None and rec.time >= state["stop_at"]:
+            raise _Stop()
+
+    message = "reached t_end"
+    with ngs.TaskManager() if setup.threads else _nothing():
+        try:
+            march(prob, t_end, dt_start=setup.ramp / 10, dt_max=dt_max, dt_min=setup.ramp * 1e-4,
+                  output_times=outputs, on_step=on_step)
+        except _Stop:
+            message = ("stopped: interior crease (self-contact off the mirror lines not modelled)"
+                       if state["interior"] is not None else f"stopped at {after_onset} x the onset time")
+        except TransientError as err:
+            message = f"TransientError: {err}"
+            progress(message)
+    if history:
+        history.close()
+    wall = time.perf_counter() - wall0
+    onset = state["onset"]
+    balance = [r["relative_balance_error"] for r in rows]
+    uptake_err = [abs(r["balance_error"]) for r in rows]
+    total_uptake = rows[-1]["uptake"] if rows else 0.0
+    summary = {"message": message, "steps": len(rows), "ndof": ndof, "wall_seconds": wall,
+               "t_last": rows[-1]["time"] if rows else 0.0,
+               "onset": None if onset is None else {k: onset[k] for k in (
+                   "time", "swollen_depth", "swollen_depth_current", "surface_ratio", "skin_ratio",
+                   "groove_depth", "crease_depth_left", "contact_points_left")},
+               "interior_crease": None if state["interior"] is None else {k: state["interior"][k] for k in (
+                   "time", "swollen_depth", "swollen_depth_current", "surface_ratio", "skin_ratio", "groove_depth",
+                   "creases_per_period", "crease_spacing")},
+               "final": None if not rows else {k: rows[-1][k] for k in (
+                   "time", "swollen_depth", "groove_depth", "crease_depth_left", "crease_depth_right",
+                   "creases_per_period", "crease_spacing")},
+               "max_relative_balance_error": max(balance) if balance else None,
+               "cumulative_balance_error_relative": (sum(uptake_err) / abs(total_uptake)) if total_uptake else None,
+               "viscous_dissipation": state["dissipation"],
+               "network_energy_scale": setup.gel.shear_modulus(setup.lam0) * setup.width * setup.thickness,
+               "max_penetration_over_h": state["max_penetration"], "max_self_crossings": state["max_crossings"],
+               "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO}
+    if run_dir:
+        run_dir.write_json("summary.json", summary)
+        plot_transient(rows, profiles, setup, run_dir.file("creases.png"))
+    progress(f"{message}; {len(rows)} steps in {wall:.1f}s, onset "
+             f"{'none' if onset is None else format(onset['time'], '.4e')}")
+    return summary
+
+
+def plot_transient(rows, profiles, setup: Setup, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not rows:
+        return
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.3))
+    times = sorted(profiles)
+    colors = plt.cm.viridis(np.linspace(0, 1, max(len(times), 2)))
+    for c, t in zip(colors, times):
+        x, y = profiles[t]
+        axes[0].plot(np.concatenate([-x[::-1], x]), np.concatenate([y[::-1], y]), color=c, label=f"t = {t:.3g}")
+    axes[0].set_aspect("equal")
+    axes[0].set_xlabel("x (current; mirrored about the crease line)")
+    axes[0].set_ylabel("surface height y")
+    axes[0].legend(fontsize=6)
+    t = np.array([r["time"] for r in rows])
+    axes[1].plot(t, [r["groove_depth"] for r in rows], label="groove depth")
+    axes[1].plot(t, [r["crease_depth_left"] for r in rows], label="crease (contact) depth")
+    axes[1].plot(t, [r["swollen_depth_current"] for r in rows], label="swollen zone depth")
+    axes[1].set_xscale("log")
+    axes[1].set_xlabel("t [H^2/D]")
+    axes[1].legend(fontsize=7)
+    axes[2].plot(np.sqrt(t), [r["uptake"] for r in rows], "o-", ms=2)
+    axes[2].set_xlabel("sqrt(t)")
+    axes[2].set_ylabel("solvent uptake (per unit depth)")
+    fig.suptitle(f"Nv={setup.Nv}, chi={setup.chi}, mu0={setup.mu0}, W={setup.width}, a/W={setup.amplitude}, "
+                 f"h={setup.top_h}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+# ----------------------------------------------------------------------------- equilibrium counterpart
+
+
+def build_equilibrium(setup: Setup, *, imperfect: bool, contact: bool) -> EquilibriumProblem:
+    setup.check()
+    prob = EquilibriumProblem(setup.mesh(imperfect=imperfect), kinematics=PlaneStrain(), materials=setup.gel,
+                              lam0=setup.lam0, mu=setup.mu0, quadrature_order=4)
+    prob.fix("bottom")
+    prob.fix("left|right", "x")
+    if contact:
+        setup.add_contact(prob)
+    return prob
+
+
+def set_homogeneous(prob: EquilibriumProblem, setup: Setup, mu: float) -> float:
+    """Put the closed-form laterally constrained state at ``mu`` into ``prob``; its free residual."""
+    prob.mu.Set(mu)
+    stretch = setup.gel.lam_constrained(mu, setup.lam0) / setup.lam0
+    prob.displacement.Set(ngs.CF((0.0, (stretch - 1.0) * ngs.y)))
+    r = prob.state.CreateVector()
+    prob.residual(prob.state, r)
+    return float(np.linalg.norm(r.FV().NumPy()[prob.free_mask]))
+
+
+def linear_threshold(setup: Setup, *, mu_tol: float = 1e-7) -> dict:
+    """Lowest ``mu`` at which the flat layer's homogeneous state loses stability (the exact count of
+    negative eigenvalues of the tangent turns non-zero), by bisection between ``mu0`` and 0."""
+    prob = build_equilibrium(setup, imperfect=False, contact=False)
+    wall0 = time.perf_counter()
+
+    def unstable(mu: float) -> bool:
+        set_homogeneous(prob, setup, mu)
+        return negative_count(free_matrix(prob.tangent(prob.state), prob.free_mask)) > 0
+
+    lo, hi = setup.mu0, 0.0
+    if unstable(lo):
+        raise RuntimeError("the reference state is already unstable")
+    if not unstable(hi):
+        return {"mu": None, "ratio": None, "ndof": prob.space.ndof, "wall_seconds": time.perf_counter() - wall0,
+                "residual_homogeneous": set_homogeneous(prob, setup, 0.0)}
+    while hi - lo > mu_tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if unstable(mid) else (mid, hi)
+    residual = set_homogeneous(prob, setup, hi)
+    return {"mu": hi, "ratio": setup.ratio(hi), "ndof": prob.space.ndof, "wall_seconds": time.perf_counter() - wall0,
+            "residual_homogeneous": residual}
+
+
+def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 1.8, mu_end: float = 0.0,
+                     history: History | None = None) -> dict:
+    """Raise ``mu`` on the imperfect layer with contact; the crease threshold is the first state with
+    the faces in contact (or, if the groove snaps shut, the last converged ``mu``). The ramp starts
+    at the ``mu`` where the homogeneous ratio is ``start_ratio`` (well below any threshold), from the
+    closed-form homogeneous state as the first Newton guess."""
+    if not 1.0 < start_ratio < setup.ratio(mu_end):
+        raise ValueError(f"start_ratio must be in (1, {setup.ratio(mu_end):.4g}), got {start_ratio!r}")
+    prob = build_equilibrium(setup, imperfect=True, contact=True)
+    wall0 = time.perf_counter()
+    mu_start = brentq(lambda m: setup.ratio(m) - start_ratio, setup.mu0, mu_end, xtol=1e-12)
+    set_homogeneous(prob, setup, mu_start)
+    prob.solve()
+    found = {}
+    path = []
+
+    def on_step(mu, _result) -> bool:
+        surf = surface_state(prob, setup)
+        surf.pop("profile")
+        path.append({"mu": mu, "ratio": setup.ratio(mu), "groove_depth": surf["groove_depth"],
+                     "crease_depth": surf["crease_depth_left"], "penetration": surf["penetration"],
+                     "self_crossings": surf["self_crossings"]})
+        if history is not None:
+            history.append(path[-1])
+        if surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0:
+            found.update(mu=mu, ratio=setup.ratio(mu), how="contact")
+            return True
+        return False
+
+    message = ""
+    try:
+        ramp(prob, prob.mu, mu_end, step=step, max_step=step, min_step=1e-6, on_step=on_step)
+    except RampError as err:
+        last = path[-1]["mu"] if path else setup.mu0
+        found.update(mu=last, ratio=setup.ratio(last), how="no converged state beyond (snap)")
+        message = str(err)
+    return {"amplitude": setup.amplitude, "top_h": setup.top_h, "ndof": prob.space.ndof,
+            "wall_seconds": time.perf_counter() - wall0, "message": message, **found, "path": path}
+
+
+def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, quiet: bool = False) -> dict:
+    setup.check()
+    progress = Progress("creases-eq") if not quiet else (lambda msg: None)
+    run_dir = RunDirectory(out, params={**setup.__dict__, "meshes": list(meshes), "amplitudes": list(amplitudes)}) \
+        if out else None
+    # closed-form check of the homogeneous state (flat layer, mu ramped by Newton)
+    prob = build_equilibrium(setup, imperfect=False, contact=False)
+    check = []
+    for mu in np.linspace(setup.mu0, 0.0, 6)[1:]:
+        prob.mu.Set(float(mu))
+        prob.solve()
+        top = sample_on_line(prob.displacement, prob.mesh, start=(0.25 * setup.width, setup.thickness),
+                             end=(0.75 * setup.width, setup.thickness), n=5).values[:, 1]
+        exact = setup.thickness * (setup.ratio(float(mu)) - 1.0)
+        check.append({"mu": float(mu), "top_uy": float(top.mean()), "exact": exact,
+                      "rel_error": abs(float(top.mean()) - exact) / exact})
+        progress(f"homogeneous mu = {mu:.3f}: top u_y {top.mean():.6f} vs closed form {exact:.6f}")
+    linear = []
+    for h in meshes:
+        s = Setup(**{**setup.__dict__, "top_h": h})
+        res = linear_threshold(s)
+        linear.append({"top_h": h, **res})
+        progress(f"linear threshold, h = {h}: mu = {res['mu']}, ratio = {res['ratio']}, ndof {res['ndof']}, "
+                 f"{res['wall_seconds']:.1f}s")
+    crease = []
+    for a in amplitudes:
+        for h in meshes[-3:-1] if len(meshes) > 2 else meshes:
+            s = Setup(**{**setup.__dict__, "amplitude": a, "top_h": h})
+            with (History(run_dir.file(f"crease_path_a{a}_h{h}.csv")) if run_dir else contextlib.nullcontext()) as hist:
+                res = crease_threshold(s, history=hist)
+            crease.append({k: v for k, v in res.items() if k != "path"})
+            progress(f"crease threshold, a/W = {a}, h = {h}: mu = {res.get('mu')}, ratio = {res.get('ratio')} "
+                     f"({res.get('how')}), {res['wall_seconds']:.1f}s")
+    summary = {"homogeneous_check": check, "linear": linear, "crease": crease, "biot_ratio": BIOT_RATIO,
+               "crease_ratio_literature": CREASE_RATIO, "ratio_at_mu0": 1.0, "ratio_at_mu_0": setup.ratio(0.0),
+               "drained_poisson_ratio": setup.gel.drained_poisson_ratio(setup.lam0)}
+    if run_dir:
+        run_dir.write_json("equilibrium.json", summary)
+    return summary
+
+
+# ----------------------------------------------------------------------------- study
+
+
+def run_study(setup: Setup, out: str, *, cases: list[tuple[str, dict, float | None]], t_end: float) -> list[dict]:
+    """Transient onset for each case ``(label, changes to setup, dt_max)``, one row per run with
+    its wall time, written as it finishes."""
+    run_dir = RunDirectory(out, params={**setup.__dict__, "cases": [[k, c, d] for k, c, d in cases]})
+    progress = Progress("creases-study")
+    rows = []
+    with History(run_dir.file("study.csv")) as hist:
+        for kind, change, dt_max in cases:
+            s = Setup(**{**setup.__dict__, **change})
+            summ = run_transient(s, None, t_end=t_end, dt_max=dt_max, after_onset=1.0, quiet=True)
+            onset = summ["onset"] or summ["interior_crease"] or {}
+            where = "mirror line" if summ["onset"] else ("interior" if summ["interior_crease"] else "none")
+            row = {"varied": kind, "crease_at": where, "top_h": s.top_h, "width": s.width, "amplitude": s.amplitude,
+                   "viscosity": s.viscosity, "dt_max": dt_max, "ndof": summ["ndof"], "steps": summ["steps"],
+                   "wall_seconds": summ["wall_seconds"], "onset_time": onset.get("time"),
+                   "onset_swollen_depth": onset.get("swollen_depth"),
+                   "onset_swollen_depth_current": onset.get("swollen_depth_current"),
+                   "onset_depth_over_width": (onset["swollen_depth"] / s.width) if onset else None,
+                   "onset_surface_ratio": onset.get("surface_ratio"), "onset_skin_ratio": onset.get("skin_ratio"),
+                   "max_relative_balance_error": summ["max_relative_balance_error"],
+                   "max_penetration_over_h": summ["max_penetration_over_h"],
+                   "max_self_crossings": summ["max_self_crossings"], "message": summ["message"]}
+            rows.append(row)
+            hist.append(row)
+            progress(f"{kind}: h={s.top_h} W={s.width} a={s.amplitude} eta={s.viscosity} dt_max={dt_max}: onset "
+                     f"t={row['onset_time']} depth={row['onset_swollen_depth']} ({row['wall_seconds']:.1f}s, "
+                     f"{row['ndof']} dofs)")
+    return rows
+
+
+STUDY_CASES = [("amplitude", {"amplitude": 0.05}, None), ("amplitude", {"amplitude": 0.003}, None),
+               ("mesh", {"amplitude": 0.05, "top_h": 0.01}, None),
+               ("width", {"width": 0.1, "top_h": 0.01, "maxh": 0.025}, None),
+               ("dt_max", {}, 2e-3), ("viscosity", {"viscosity": 1e-2}, None),
+               ("mesh", {"amplitude": 0.05, "top_h": 0.005}, None)]
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default="results/creases")
+    parser.add_argument("--quick", action="store_true", help="coarse mesh (also set by env CI)")
+    parser.add_argument("--equilibrium", action="store_true", help="quasi-static counterpart instead")
+    parser.add_argument("--study", action="store_true", help="onset vs mesh, dt and imperfection")
+    parser.add_argument("--Nv", type=float, default=Setup.Nv)
+    parser.add_argument("--chi", type=float, default=Setup.chi)
+    parser.add_argument("--mu0", type=float, default=Setup.mu0)
+    parser.add_argument("--width", type=float, default=Setup.width, help="cell width W (half the crease period)")
+    parser.add_argument("--thickness", type=float, default=Setup.thickness)
+    parser.add_argument("--amplitude", type=float, default=Setup.amplitude, help="trough depth / W")
+    parser.add_argument("--top-h", type=float, default=None, help="surface element size")
+    parser.add_argument("--maxh", type=float, default=Setup.maxh)
+    parser.add_argument("--penalty", type=float, default=Setup.penalty)
+    parser.add_argument("--ramp", type=float, default=Setup.ramp)
+    parser.add_argument("--viscosity", type=float, default=Setup.viscosity, help="stabiliser eta/G")
+    parser.add_argument("--t-end", type=float, default=0.2)
+    parser.add_argument("--dt-max", type=float, default=None)
+    args = parser.parse_args(argv)
+    quick = args.quick or bool(os.environ.get("CI"))
+    top_h = args.top_h if args.top_h is not None else (0.02 if quick else Setup.top_h)
+    setup = Setup(Nv=args.Nv, chi=args.chi, mu0=args.mu0, thickness=args.thickness, width=args.width,
+                  amplitude=args.amplitude, top_h=top_h, maxh=max(args.maxh, top_h) if quick else args.maxh,
+                  penalty=args.penalty, ramp=args.ramp, viscosity=args.viscosity)
+    setup.check()
+    if args.equilibrium:
+        meshes = [0.04, 0.02] if quick else [0.02, 0.01, 0.005, 0.0025]  # crease: the middle two
+        amplitudes = [0.1] if quick else [0.1, 0.03, 0.01]
+        summary = run_equilibrium(setup, args.out, meshes=meshes, amplitudes=amplitudes)
+        print(f"linear thresholds: {[(r['top_h'], r['ratio']) for r in summary['linear']]}; crease thresholds: "
+              f"{[(r['amplitude'], r['top_h'], r.get('ratio')) for r in summary['crease']]}")
+        return summary
+    if args.study:
+        base = Setup(**{**setup.__dict__, "top_h": 0.02})
+        rows = run_study(base, args.out, cases=STUDY_CASES, t_end=args.t_end)
+        return {"study": rows}
+    summary = run_transient(setup, args.out, t_end=args.t_end, dt_max=args.dt_max,
+                            after_onset=1.2 if quick else 1.5)
+    onset = summary["onset"]
+    print("no crease onset before t_end" if onset is None else
+          f"crease onset at t = {onset['time']:.4e}: swollen depth {onset['swollen_depth']:.4f} (reference), "
+          f"surface ratio {onset['surface_ratio']:.3f}, skin ratio {onset['skin_ratio']:.3f}; max balance error "
+          f"{summary['max_relative_balance_error']:.1e}; max penetration/h {summary['max_penetration_over_h']:.1e}; "
+          f"results in {args.out}")
+    return summary
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,98 @@
+"""Creases on a bonded gel layer (scene E): homogeneous state, linear threshold, contact, script."""
+
+import json
+import os
+import sys
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
+
+import creases  # noqa: E402
+from geometries.layers import layer_plane  # noqa: E402
+from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp  # noqa: E402
+from ngsgel.contact import plane_contact, self_intersections, surface_line  # noqa: E402
+
+
+def coarse(**change):
+    return creases.Setup(**{"top_h": 0.02, "maxh": 0.05, **change})
+
+
+def test_homogeneous_layer_matches_constrained_closed_form():
+    """Flat cell, mu raised by Newton: the top moves as the laterally constrained layer
+    (lam_constrained), which P2 displacements represent exactly (linear in y)."""
+    setup = coarse()
+    prob = creases.build_equilibrium(setup, imperfect=False, contact=False)
+    for mu in (-0.3, -0.1, -0.02):
+        prob.mu.Set(mu)
+        prob.solve()
+        top = prob.displacement(prob.mesh(0.1, 1.0))[1]
+        exact = setup.gel.lam_constrained(mu, setup.lam0) / setup.lam0 - 1.0
+        assert top == pytest.approx(exact, rel=1e-9)
+
+
+def test_linear_threshold_converges_between_crease_and_biot():
+    """The flat layer loses stability (exact inertia) at a thickness/lateral stretch ratio that
+    changes by < 1 % between two meshes and lies below Biot's incompressible half-space value
+    (the drained gel is compressible, which lowers the threshold) and above the energetic crease
+    threshold 2.4 (creases are subcritical: they precede wrinkling)."""
+    a = creases.linear_threshold(coarse(top_h=0.01))
+    b = creases.linear_threshold(coarse(top_h=0.005))
+    assert a["residual_homogeneous"] < 1e-12 and b["residual_homogeneous"] < 1e-12
+    assert abs(a["ratio"] - b["ratio"]) / b["ratio"] < 0.01
+    assert creases.CREASE_RATIO < b["ratio"] < creases.BIOT_RATIO
+
+
+def _forced_fold(with_contact: bool):
+    """A block bonded at the bottom, its right side pushed left by 0.03: the top surface is carried
+    across the plane x = 0 unless contact holds it."""
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    mesh = layer_plane(width=0.2, thickness=0.1, maxh=0.02).mesh
+    prob = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=gel.lam_free(-0.1), mu=-0.1)
+    load = ngs.Parameter(0.0)
+    prob.fix("bottom", "y")
+    prob.prescribe("right", "x", -0.03 * load)
+    if with_contact:
+        prob.add_surface_energy("top", plane_contact(component=0, position=0.0, side=1,
+                                                     penalty=1e3 * gel.shear_modulus(prob.lam0) / 0.02))
+    prob.solve()
+    assert ramp(prob, load, 1.0, step=0.25).converged
+    return surface_line(prob.displacement, mesh, "top")
+
+
+def test_contact_prevents_interpenetration():
+    free = _forced_fold(False)
+    held = _forced_fold(True)
+    assert free.current[:, 0].min() < -0.02  # without contact the surface crosses the plane
+    assert -held.current[:, 0].min() < 0.05 * held.edge_length  # with it, penetration < 5 % of h (penalty 1e3 G/h)
+    assert self_intersections(held.current) == 0
+
+
+def test_self_intersections_counts_a_crossing_fold():
+    folded = np.array([[0, 0], [1, 0], [1, 1], [0.5, -0.5], [2, -1.0]])
+    assert self_intersections(folded) == 1
+    assert self_intersections(np.array([[0, 0], [1, 0], [2, 0.1], [3, 0]])) == 0
+
+
+def test_bad_input_raises_before_work():
+    with pytest.raises(ValueError, match="amplitude"):
+        creases.Setup(amplitude=0.7).check()
+    with pytest.raises(ValueError, match="mu0"):
+        creases.Setup(mu0=0.1).check()
+    with pytest.raises(ValueError, match="top_h"):
+        creases.Setup(top_h=0.1).check()
+    with pytest.raises(ValueError, match="penalty"):
+        plane_contact(component=0, position=0.0, side=1, penalty=-1.0)
+
+
+def test_quick_script_reports_onset(tmp_path):
+    summary = creases.main(["--quick", "--out", str(tmp_path)])
+    assert summary["onset"] is not None, summary["message"]
+    assert summary["max_self_crossings"] == 0
+    assert summary["max_penetration_over_h"] < 0.05
+    assert summary["max_relative_balance_error"] < 1e-6
+    saved = json.loads((tmp_path / "summary.json").read_text())
+    assert saved["onset"]["time"] == pytest.approx(summary["onset"]["time"])
+    assert (tmp_path / "creases.png").stat().st_size > 0
