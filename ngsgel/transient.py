@@ -142,6 +142,9 @@ class TransientProblem(GelBody):
     gives equal orders, which oscillate after an immersion step). ``lumped`` (default: when
     ``mu_order == 1``) lumps the solvent mass, see the module notes. ``inverse`` is the sparse
     direct solver for the unsymmetric tangent.
+    ``viscosity`` (default 0: none) adds a pseudo-viscous force ``eta (u - u_n)/dt`` to the
+    u-equation, the stabiliser that carries a run through a snap (a crease forming) where the
+    quasi-static state jumps; ``viscous_dissipation()`` gives its work in the last step.
 
     The initial state is the swollen reference at ``mu0`` (a number or a field); ``reset``
     starts again from there or from an ``EquilibriumProblem``'s state (needed for graded gels,
@@ -160,7 +163,7 @@ class TransientProblem(GelBody):
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
                  materials: Mapping[str, Material] | Material, lam0: float, mu0,
                  order: int = 2, mu_order: int | None = None, lumped: bool | None = None,
-                 inverse: str = "umfpack"):
+                 inverse: str = "umfpack", viscosity: float = 0.0):
         # The mass term and the content integrals must use the same points for the balance to
         # close to round-off: pinned, 2 order (pass the same to an EquilibriumProblem to compare).
         super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order,
@@ -182,6 +185,9 @@ class TransientProblem(GelBody):
         self.lumped = mu_order == 1 if lumped is None else lumped
         self.mu0 = _as_cf(mu0)
         self.inverse = inverse
+        if not (isinstance(viscosity, Real) and math.isfinite(viscosity) and viscosity >= 0):
+            raise ValueError(f"viscosity must be a finite number >= 0, got {viscosity!r}")
+        self.viscosity = float(viscosity)
         self.t = ngs.Parameter(0.0)
         self.dt = ngs.Parameter(1.0)
         self.time = 0.0
@@ -244,8 +250,15 @@ class TransientProblem(GelBody):
         mass_rules = _vertex_rules() if self.lumped else rules
         Fp = self.deformation_gradient(u)
         energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, mu, lam0))
+        energy = self.with_surface_energies(energy, u)
         mobility = (ngs.Det(Fp) - lam0**-3) * ngs.Inv(Fp.trans * Fp)
         form = ngs.BilinearForm(X)
+        if self.viscosity > 0:
+            # pseudo-viscous stabiliser: Rayleigh dissipation eta/2 |u - u_n|^2 / dt per reference
+            # volume, a force eta (u - u_n)/dt that carries the u-equation through snaps
+            # (creasing) where the quasi-static state jumps; zero in a steady state
+            du_step = u - self._old.components[0]
+            energy = energy + (self.viscosity / (2 * self.dt) * w * ngs.InnerProduct(du_step, du_step)) * ngs.dx(intrules=rules)
         form += ngs.Variation(energy)
         if self.lumped:  # replace the energy's consistent mass by the lumped one
             form += (self._content_density(Fp) * q).Compile() * ngs.dx(intrules=rules)
@@ -391,6 +404,14 @@ class TransientProblem(GelBody):
                           balance_error=step_uptake - wetted - prescribed)
 
     # --------------------------------------------------------------------- outputs
+    def viscous_dissipation(self) -> float:
+        """Energy dissipated by the ``viscosity`` stabiliser in the last step,
+        ``int eta |u - u_n|^2 / dt dV'`` (0 without it)."""
+        if self.viscosity == 0:
+            return 0.0
+        du_step = self.displacement - self._old.components[0]
+        return self.viscosity / self.dt.Get() * self.integrate(ngs.InnerProduct(du_step, du_step))
+
     def volume_ratio(self) -> ngs.CoefficientFunction:
         """``J`` relative to the dry state."""
         return self.lam0**3 * ngs.Det(self.deformation_gradient(self.displacement))
