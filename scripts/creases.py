@@ -40,7 +40,7 @@ import ngsolve as ngs
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from geometries.layers import layer_plane  # noqa: E402
-from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain  # noqa: E402
+from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain  # noqa: E402
 from ngsgel.contact import plane_contact, self_intersections, surface_line  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
@@ -398,8 +398,7 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
     prob = build_equilibrium(setup, imperfect=True, contact=True)
     wall0 = time.perf_counter()
     mu_start = brentq(lambda m: setup.ratio(m) - start_ratio, setup.mu0, mu_end, xtol=1e-12)
-    set_homogeneous(prob, setup, mu_start)
-    prob.solve()
+    ramp(prob, prob.mu, mu_start, step=0.05)  # coarse steps where nothing happens (raises if it fails)
     found = {}
     path = []
 
@@ -456,10 +455,14 @@ def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, quiet:
         for h in meshes[-3:-1] if len(meshes) > 2 else meshes:
             s = Setup(**{**setup.__dict__, "amplitude": a, "top_h": h})
             with (History(run_dir.file(f"crease_path_a{a}_h{h}.csv")) if run_dir else contextlib.nullcontext()) as hist:
-                res = crease_threshold(s, history=hist)
+                try:
+                    res = crease_threshold(s, history=hist)
+                except (RampError, NewtonError) as err:  # recorded as a failed case, not hidden
+                    res = {"amplitude": a, "top_h": h, "wall_seconds": None, "message": f"failed: {err}",
+                           "how": "failed", "path": []}
             crease.append({k: v for k, v in res.items() if k != "path"})
             progress(f"crease threshold, a/W = {a}, h = {h}: mu = {res.get('mu')}, ratio = {res.get('ratio')} "
-                     f"({res.get('how')}), {res['wall_seconds']:.1f}s")
+                     f"({res.get('how')}), {res['wall_seconds']}s {res['message'][:120]}")
     summary = {"homogeneous_check": check, "linear": linear, "crease": crease, "biot_ratio": BIOT_RATIO,
                "crease_ratio_literature": CREASE_RATIO, "ratio_at_mu0": 1.0, "ratio_at_mu_0": setup.ratio(0.0),
                "drained_poisson_ratio": setup.gel.drained_poisson_ratio(setup.lam0)}
@@ -520,6 +523,7 @@ def main(argv=None) -> dict:
     parser.add_argument("--width", type=float, default=Setup.width, help="cell width W (half the crease period)")
     parser.add_argument("--thickness", type=float, default=Setup.thickness)
     parser.add_argument("--amplitude", type=float, default=Setup.amplitude, help="trough depth / W")
+    parser.add_argument("--amplitudes", default="0.1,0.03,0.01", help="--equilibrium: imperfections (a/W) for the crease threshold")
     parser.add_argument("--top-h", type=float, default=None, help="surface element size")
     parser.add_argument("--maxh", type=float, default=Setup.maxh)
     parser.add_argument("--penalty", type=float, default=Setup.penalty)
@@ -536,7 +540,7 @@ def main(argv=None) -> dict:
     setup.check()
     if args.equilibrium:
         meshes = [0.04, 0.02] if quick else [0.02, 0.01, 0.005, 0.0025]  # crease: the middle two
-        amplitudes = [0.1] if quick else [0.1, 0.03, 0.01]
+        amplitudes = [0.1] if quick else [float(a) for a in args.amplitudes.split(",")]
         summary = run_equilibrium(setup, args.out, meshes=meshes, amplitudes=amplitudes)
         print(f"linear thresholds: {[(r['top_h'], r['ratio']) for r in summary['linear']]}; crease thresholds: "
               f"{[(r['amplitude'], r['top_h'], r.get('ratio')) for r in summary['crease']]}")
