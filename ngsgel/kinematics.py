@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 
-__all__ = ["Kinematics", "Solid3D", "PlaneStrain", "Axisymmetric", "SphericalSymmetric", "kinematics_by_name"]
+__all__ = ["Kinematics", "Solid3D", "PlaneStrain", "Axisymmetric", "SphericalSymmetric", "PolarPlaneStrain",
+           "kinematics_by_name"]
 
 
 @dataclass(frozen=True)
@@ -106,7 +107,24 @@ class SphericalSymmetric(Kinematics):
         return 4 * math.pi * ngs.x**2
 
 
-_BY_NAME = {k.name: k for k in (Solid3D, PlaneStrain, Axisymmetric, SphericalSymmetric)}
+@dataclass(frozen=True)
+class PolarPlaneStrain(Kinematics):
+    """Radial line ``x = r > 0`` of an axisymmetric plane-strain body (a long tube whose axial
+    stretch stays at its reference value): ``F = diag(1 + u', 1 + u/r, 1)``. The 1D reference
+    model for the pre-buckling state of tubes and annuli in plane strain."""
+
+    name = "polar_plane"
+    mesh_dim = 1
+    components: tuple[str, ...] = ("r",)
+
+    def deformation_gradient(self, u):
+        return _embed((1 + ngs.Grad(u)[0], 0, 0, 0, 1 + u / ngs.x, 0, 0, 0, 1))
+
+    def volume_weight(self):
+        return 2 * math.pi * ngs.x
+
+
+_BY_NAME = {k.name: k for k in (Solid3D, PlaneStrain, Axisymmetric, SphericalSymmetric, PolarPlaneStrain)}
 
 
 def kinematics_by_name(name: str) -> Kinematics:

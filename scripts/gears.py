@@ -1,0 +1,432 @@
+"""Gears from a shrinking film-coated gel tube (thesis ch. 4, MODEL.md scene B), plane strain.
+
+A gel annulus ``Ri = 1 < r < Ro = 2`` (Nv = 1e-3, chi = 0.5, free swollen at mu = 0) carries bonded
+neo-Hookean films inside (thickness ``Ri/(Ri/tfi)``) and outside (``Ro/(Ro/tfo)``), moduli
+``Efi``, ``Efo`` in units of ``Es = 3 Nv`` (the thesis's 3NkT), Poisson ratio ``--nu-film``
+(0.3: the thesis does not give it). ``mu`` falls from 0 until a free plane-strain gel would keep
+``--volume`` of its volume.
+
+Single run (default): the driver follows ``mu`` with a stability check at every step; the first
+loss of stability is located (critical ``mu``, volume fraction, film hoop stresses, wave numbers
+of the critical mode on both films), the path switches onto the buckled branch along the
+critical mode and follows it to the end without further checks (one spectrum at the end says
+whether the final gear is stable). Rigid motions are removed by three tangential point
+constraints that carry no load (``ngsgel.supports``). Outputs in ``--out``: ``params.json``,
+``path.csv/.jsonl`` (every step), ``summary.json``, ``gear.png`` (deformed films and gel),
+``gear.vtu``.
+
+Sweeps (``--sweep``): ``efo`` (thesis figs. 4-1/4-2: the type of the first instability for
+``Efo/Es`` at ``Efi/Es = 12.5``, FE onset against the ring-on-foundation analysis),
+``convergence`` (onset and wave numbers at several resolutions with wall times). Each writes
+``<name>.csv`` and ``<name>.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import ngsolve as ngs  # noqa: E402
+
+import geometries as geo  # noqa: E402
+from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
+from ngsgel.continuation import StabilityOptions, follow_path  # noqa: E402
+from ngsgel.film_tube import FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset  # noqa: E402
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
+from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
+from ngsgel.stability import spectrum  # noqa: E402
+from ngsgel.supports import pin_rigid_modes  # noqa: E402
+
+NV, CHI = 1e-3, 0.5
+ES = 3 * NV  # the thesis's Es = 3NkT, in units of kT/v
+RI, RO = 1.0, 2.0
+SAMPLES = 2048  # points per circle for wave analysis and pictures
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Parameters of one gear run (thesis names; moduli relative to ``Es``)."""
+
+    efi: float = 12.5
+    efo: float = 7.23
+    ri_tfi: float = 50.0
+    ro_tfo: float = 100.0
+    nu_film: float = 0.3
+    volume: float = 0.7
+
+    def tube(self) -> FilmTube:
+        return FilmTube(Ri=RI, Ro=RO, tfi=RI / self.ri_tfi, tfo=RO / self.ro_tfo, Efi=self.efi * ES,
+                        Efo=self.efo * ES, nu_film=self.nu_film, Nv=NV, chi=CHI)
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """``n_theta`` cells around (a multiple of 4, for the rigid-mode supports), element
+    ``order``, gel cell size ``maxh`` away from the films, ``film_layers`` cells across each film."""
+
+    n_theta: int = 256
+    order: int = 2
+    maxh: float = 0.2
+    film_layers: int = 2
+
+
+def check_scene(scene: Scene) -> None:
+    """Bad input raises ValueError naming the parameter and its range, before any work."""
+    ranges = {"efi": (0.01, 1e4), "efo": (0.01, 1e4), "ri_tfi": (2.0, 1e3), "ro_tfo": (2.0, 1e3),
+              "nu_film": (-0.99, 0.499), "volume": (0.3, 0.99)}
+    for name, (lo, hi) in ranges.items():
+        value = getattr(scene, name)
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or not lo <= value <= hi:
+            raise ValueError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
+    if RI / scene.ri_tfi + RO / scene.ro_tfo >= RO - RI:
+        raise ValueError("ri_tfi, ro_tfo: the films must be thinner than the wall together")
+
+
+def check_resolution(res: Resolution) -> None:
+    if not isinstance(res.n_theta, int) or res.n_theta < 16 or res.n_theta % 4:
+        raise ValueError(f"n_theta must be a multiple of 4 and >= 16, got {res.n_theta!r}")
+    if not isinstance(res.order, int) or not 1 <= res.order <= 5:
+        raise ValueError(f"order must be an integer in [1, 5], got {res.order!r}")
+    if not isinstance(res.maxh, (int, float)) or not 0.005 <= res.maxh <= 1.0:
+        raise ValueError(f"maxh must lie in [0.005, 1], got {res.maxh!r}")
+    if not isinstance(res.film_layers, int) or not 1 <= res.film_layers <= 8:
+        raise ValueError(f"film_layers must be an integer in [1, 8], got {res.film_layers!r}")
+
+
+# ----------------------------------------------------------------------------- model
+class GearModel:
+    """The plane-strain FE model of one scene and its measurements."""
+
+    def __init__(self, scene: Scene, res: Resolution):
+        check_scene(scene)
+        check_resolution(res)
+        self.scene, self.res, self.tube = scene, res, scene.tube()
+        t = self.tube
+        self.bundle = geo.tube_plane(Ri=RI, Ro=RO, tfi=t.tfi, tfo=t.tfo, maxh=res.maxh, n_theta=res.n_theta,
+                                     film_layers=res.film_layers, quad=True)
+        self.mesh = self.bundle.mesh
+        # LU with pivoting: past the onset the tangent is indefinite
+        self.problem = EquilibriumProblem(self.mesh, kinematics=PlaneStrain(), materials=t.materials(),
+                                          lam0=t.lam0, mu=t.mu0, order=res.order, inverse="umfpack")
+        # supports on the gel's inner surface, where the structured mesh has vertices at 0, pi/2, pi
+        pin_rigid_modes(self.problem, radius=RI)
+        self.mu_end = t.mu_at_volume_fraction(scene.volume)
+        e_r = ngs.CF((ngs.x, ngs.y)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+        e_t = ngs.CF((-ngs.y, ngs.x)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+        self.e_r = e_r
+        sigma = self.problem.stress()
+        sigma2 = ngs.CF((sigma[0, 0], sigma[0, 1], sigma[1, 0], sigma[1, 1]), dims=(2, 2))
+        self.hoop = ngs.InnerProduct(sigma2 * e_t, e_t)  # reference e_theta: the pre-buckling state is axisymmetric
+        self.areas = self.bundle.region_measures
+        self.radii = {"inner": t.film("inner")[0], "outer": t.film("outer")[0]}
+
+    def volume_fraction(self) -> float:
+        det = ngs.Det(self.problem.deformation_gradient(self.problem.displacement))
+        return self.problem.integrate(det, region=GEL) / self.areas[GEL]
+
+    def mean_hoop_stress(self, region: str) -> float:
+        return self.problem.integrate(self.hoop, region=region) / self.areas[region]
+
+    def radial_signal(self, field, film: str) -> np.ndarray:
+        """Radial component of a displacement field on the film's reference mid-circle."""
+        samples = sample_on_circle(ngs.InnerProduct(field, self.e_r), self.mesh, center=(0.0, 0.0),
+                                   radius=self.radii[film], n=SAMPLES)
+        return samples.values
+
+    def waves(self, field, film: str, *, max_mode: int = 200) -> dict:
+        signal = self.radial_signal(field, film)
+        analysis = wave_number(signal - signal.mean(), max_mode=max_mode)
+        return {"k": analysis.k, "amplitude": analysis.amplitude, "purity": analysis.purity}
+
+    def qoi(self) -> dict:
+        u = self.problem.displacement
+        q = {"volume_fraction": self.volume_fraction,
+             "hoop_inner": lambda: self.mean_hoop_stress(FILM_INNER),
+             "hoop_outer": lambda: self.mean_hoop_stress(FILM_OUTER)}
+        for film in ("inner", "outer"):
+            q[f"amplitude_{film}"] = (lambda f=film: self.waves(u, f)["amplitude"])
+            q[f"k_{film}"] = (lambda f=film: self.waves(u, f)["k"])
+        return q
+
+
+def classify(model: GearModel, threshold: float) -> dict:
+    """Teeth on a film where the non-axisymmetric radial displacement of its mid-circle has a
+    dominant-mode amplitude of at least ``threshold`` film thicknesses; tooth counts from the
+    periodic peaks of that signal (teeth point inward for the inner film, outward for the outer)."""
+    u = model.problem.displacement
+    result = {}
+    for film, thickness, sign in (("inner", model.tube.tfi, -1.0), ("outer", model.tube.tfo, 1.0)):
+        signal = model.radial_signal(u, film)
+        w = model.waves(u, film)
+        peaks = periodic_peaks(sign * (signal - signal.mean()), relative_prominence=0.3)
+        result[film] = {"teeth": bool(w["amplitude"] >= threshold * thickness), "k": w["k"],
+                        "amplitude": w["amplitude"], "amplitude_over_t": w["amplitude"] / thickness,
+                        "purity": w["purity"], "tooth_count": peaks.count}
+    kind = {(True, False): "inner teeth", (False, True): "outer teeth", (True, True): "double teeth",
+            (False, False): "no teeth"}[(result["inner"]["teeth"], result["outer"]["teeth"])]
+    return {"type": kind, **result}
+
+
+# ----------------------------------------------------------------------------- runs
+def onset(model: GearModel, *, history=None, progress=None, step_fraction: float = 0.08,
+          tol_fraction: float = 2e-4):
+    """Follow ``mu`` down with stability checks until the first loss of stability, located to
+    ``tol_fraction`` of the ``mu`` span. Returns the path result, the onset record (None if
+    stable to the end) and the event."""
+    p = model.problem
+    span = abs(model.mu_end - model.tube.mu0)
+    result = follow_path(
+        p, p.mu, method="natural", step=span * step_fraction, max_step=span * step_fraction,
+        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress,
+        stability=StabilityOptions(eigenvalues=2, tol=span * tol_fraction, switch=False),
+        stop=lambda pt: bool(pt.negative))
+    events = [e for e in result.events if e.kind in ("bifurcation", "limit point")]
+    if not events:
+        return result, None, None
+    event = events[0]
+    point = next(pt for pt in result.points if pt.events and pt.events[0] == event.kind)
+    mode_waves = {film: model.waves(event.mode, film) for film in ("inner", "outer")}
+    located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
+    record = {"kind": event.kind, "mu_cr": event.parameter, "mu_error": event.parameter_error,
+              "negative_after": event.negative_after, "volume_fraction_cr": point.qoi["volume_fraction"],
+              "hoop_inner_cr": point.qoi["hoop_inner"], "hoop_outer_cr": point.qoi["hoop_outer"],
+              "mode_k_inner": mode_waves["inner"]["k"], "mode_k_outer": mode_waves["outer"]["k"],
+              "mode_amplitude_ratio_inner_outer": mode_waves["inner"]["amplitude"] / mode_waves["outer"]["amplitude"],
+              "mode_film": located, "mode_k": mode_waves[located]["k"],
+              "mode_film_amplitude": mode_waves[located]["amplitude"]}
+    return result, record, event
+
+
+def switch_branch(model: GearModel, event, record: dict, *, film_amplitude: float = 0.25,
+                  overshoot: float = 0.03) -> None:
+    """Put the problem on the buckled branch: the located critical state plus its critical mode,
+    scaled so that the buckling film's radial amplitude is ``film_amplitude`` film thicknesses.
+
+    The driver's own branch switch continues with stability checks, and on the buckled branch of
+    a ring the rotation of the pattern relative to the material is a (discretely broken) zero mode
+    whose eigenvalue flips sign at round-off level: those checks would report spurious events.
+    So the switch is done here and the buckled branch is followed without checks; the final state
+    gets one spectrum."""
+    p = model.problem
+    thickness = model.tube.tfi if record["mode_film"] == "inner" else model.tube.tfo
+    scale = film_amplitude * thickness / record["mode_film_amplitude"]
+    p.restore_state(event.state + scale * event.mode.vec.FV().NumPy())
+    # a little past the critical point, where the buckled branch exists next to the perturbed state
+    p.mu.Set(event.parameter + overshoot * (model.mu_end - model.tube.mu0))
+
+
+def analysis(scene: Scene, mu_end: float, stiffnesses=("michell", "lame")) -> dict:
+    """Ring-on-foundation onsets of both films (Michell stiffness, and the thesis's Lame one)."""
+    tube = scene.tube()
+    radial = RadialTube(tube)
+    out = {}
+    for stiffness in stiffnesses:
+        for film in ("inner", "outer"):
+            o = ring_onset(tube, film, mu_end=mu_end, stiffness=stiffness, radial=radial, tol=1e-8)
+            out[f"{stiffness}_{film}"] = asdict(o)
+        mi, mo = out[f"{stiffness}_inner"]["mu"], out[f"{stiffness}_outer"]["mu"]
+        first = None if mi is None and mo is None else (
+            "inner" if mo is None or (mi is not None and mi > mo) else "outer")
+        out[f"{stiffness}_first"] = first
+    return out
+
+
+def draw_gear(model: GearModel, path, *, title: str = "", ax=None) -> None:
+    """Deformed gel and films, filled between their deformed boundary circles."""
+    u = model.problem.displacement
+    t = model.tube
+    theta = 2 * np.pi * np.arange(SAMPLES + 1) / SAMPLES
+    eps = 1e-6
+
+    def curve(radius):
+        s = sample_on_circle(u, model.mesh, center=(0.0, 0.0), radius=radius, n=SAMPLES)
+        xy = s.points + s.values
+        return np.vstack([xy, xy[:1]])
+
+    own = ax is None
+    if own:
+        fig, ax = plt.subplots(figsize=(6, 6))
+    bands = [(RI - t.tfi + eps, RI - eps, "tab:red", "inner film"), (RI + eps, RO - eps, "0.8", "gel"),
+             (RO + eps, RO + t.tfo - eps, "tab:blue", "outer film")]
+    for a, b, color, label in bands:
+        inner, outer = curve(a), curve(b)
+        ax.fill(np.concatenate([outer[:, 0], inner[::-1, 0]]), np.concatenate([outer[:, 1], inner[::-1, 1]]),
+                color=color, lw=0, label=label)
+    ref = 1.0
+    ax.plot(RO * ref * np.cos(theta), RO * ref * np.sin(theta), "k:", lw=0.5, label="reference outer radius")
+    ax.set_aspect("equal")
+    ax.axis("off")
+    ax.set_title(title, fontsize=9)
+    if own:
+        ax.legend(loc="upper right", fontsize=7)
+        fig.tight_layout()
+        fig.savefig(path, dpi=150)
+        plt.close(fig)
+
+
+def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, progress=None,
+               quick: bool = False) -> dict:
+    run = RunDirectory(out, params={"scene": asdict(scene), "resolution": asdict(res), "Es": ES, "Nv": NV,
+                                    "chi": CHI, "Ri": RI, "Ro": RO, "teeth_threshold": threshold})
+    start = time.perf_counter()
+    model = GearModel(scene, res)
+    summary = {"ndof": model.problem.space.ndof, "mu_end": model.mu_end}
+    with History(run.file("path.csv")) as history:
+        _, record, event = onset(model, history=history, progress=progress)
+        summary["onset"] = record
+        summary["onset_seconds"] = time.perf_counter() - start
+        p = model.problem
+        if record is not None:
+            switch_branch(model, event, record)
+            follow_path(p, p.mu, method="natural", step=abs(model.mu_end - p.mu.Get()) / 8,
+                        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress)
+    final = spectrum(p, count=2)
+    summary["final"] = {"mu": p.mu.Get(), "volume_fraction": model.volume_fraction(),
+                        "negative_eigenvalues": final.negative,
+                        "lowest_eigenvalues": [float(v) for v in final.eigenvalues],
+                        **classify(model, threshold)}
+    summary["seconds"] = time.perf_counter() - start
+    summary["analysis"] = analysis(scene, model.mu_end, ("michell",) if quick else ("michell", "lame"))
+    run.write_json("summary.json", summary)
+    VTKSeries(model.mesh, p.fields(), run.file("gear")).write(0.0)
+    kind = summary["final"]["type"]
+    draw_gear(model, run.file("gear.png"),
+              title=f"Efi/Es={scene.efi:g}, Efo/Es={scene.efo:g}, Ri/tfi={scene.ri_tfi:g}, Ro/tfo={scene.ro_tfo:g}: "
+                    f"{kind}, volume {summary['final']['volume_fraction']:.3f}")
+    return summary
+
+
+# ----------------------------------------------------------------------------- sweeps
+def write_table(path, rows: list[dict]) -> None:
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=keys)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def sweep_efo(base: Scene, res: Resolution, run: RunDirectory, values, progress=None) -> list[dict]:
+    """Type of the first instability against Efo/Es (FE onset and both analyses)."""
+    rows = []
+    for efo in values:
+        scene = Scene(**{**asdict(base), "efo": float(efo)})
+        t0 = time.perf_counter()
+        model = GearModel(scene, res)
+        _, record, _ = onset(model, progress=progress)
+        ana = analysis(scene, model.mu_end)
+        row = {"efo": efo, "fe_mu_cr": record and record["mu_cr"], "fe_film": record and record["mode_film"],
+               "fe_k": record and record["mode_k"], "fe_volume_cr": record and record["volume_fraction_cr"],
+               "fe_ratio_inner_outer": record and record["mode_amplitude_ratio_inner_outer"],
+               "seconds": time.perf_counter() - t0}
+        for stiffness in ("michell", "lame"):
+            for film in ("inner", "outer"):
+                row[f"{stiffness}_{film}_mu"] = ana[f"{stiffness}_{film}"]["mu"]
+                row[f"{stiffness}_{film}_n"] = ana[f"{stiffness}_{film}"]["n"]
+            row[f"{stiffness}_first"] = ana[f"{stiffness}_first"]
+        rows.append(row)
+        write_table(run.file("sweep_efo.csv"), rows)  # step by step
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    x = np.array([r["efo"] for r in rows], dtype=float)
+    for stiffness, style in (("michell", "-"), ("lame", "--")):
+        for film, color in (("inner", "tab:red"), ("outer", "tab:blue")):
+            y = np.array([np.nan if r[f"{stiffness}_{film}_mu"] is None else r[f"{stiffness}_{film}_mu"] for r in rows])
+            ax.plot(x, y, style, color=color, label=f"analysis ({stiffness}), {film} film")
+    for r in rows:
+        if r["fe_mu_cr"] is not None:
+            ax.plot(r["efo"], r["fe_mu_cr"], "o", color="tab:red" if r["fe_film"] == "inner" else "tab:blue")
+    ax.plot([], [], "ko", label="FE onset (colour: film)")
+    ax.set_xscale("log")
+    ax.set_xlabel("Efo/Es")
+    ax.set_ylabel("onset mu (kT)")
+    ax.set_title(f"Efi/Es = {base.efi:g}: the film with the higher onset mu buckles first")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(run.file("sweep_efo.png"), dpi=130)
+    plt.close(fig)
+    return rows
+
+
+def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=None) -> list[dict]:
+    """Onset mu and wave numbers of the critical mode at several resolutions, with wall times."""
+    rows = []
+    for res in resolutions:
+        t0 = time.perf_counter()
+        model = GearModel(scene, res)
+        _, record, _ = onset(model, progress=progress)
+        rows.append({**asdict(res), "ndof": model.problem.space.ndof, "mu_cr": record and record["mu_cr"],
+                     "mode_film": record and record["mode_film"], "k_inner": record and record["mode_k_inner"],
+                     "k_outer": record and record["mode_k_outer"],
+                     "volume_cr": record and record["volume_fraction_cr"],
+                     "seconds": time.perf_counter() - t0})
+        write_table(run.file("convergence.csv"), rows)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot([r["ndof"] for r in rows], [r["mu_cr"] for r in rows], "o-")
+    for r in rows:
+        ax.annotate(f"n_theta={r['n_theta']}, p={r['order']}: {r['seconds']:.0f} s", (r["ndof"], r["mu_cr"]),
+                    fontsize=7)
+    ax.set_xscale("log")
+    ax.set_xlabel("degrees of freedom")
+    ax.set_ylabel("onset mu")
+    fig.tight_layout()
+    fig.savefig(run.file("convergence.png"), dpi=130)
+    plt.close(fig)
+    return rows
+
+
+# ----------------------------------------------------------------------------- main
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="out/gears", help="output folder")
+    parser.add_argument("--quick", action="store_true", help="coarse case for tests")
+    parser.add_argument("--efi", type=float, default=12.5, help="Efi/Es")
+    parser.add_argument("--efo", type=float, default=7.23, help="Efo/Es")
+    parser.add_argument("--ri-tfi", type=float, default=50.0, help="Ri/tfi")
+    parser.add_argument("--ro-tfo", type=float, default=100.0, help="Ro/tfo")
+    parser.add_argument("--nu-film", type=float, default=0.3)
+    parser.add_argument("--volume", type=float, default=0.7, help="final volume fraction of a free gel")
+    parser.add_argument("--n-theta", type=int, default=None, help="cells around (multiple of 4)")
+    parser.add_argument("--order", type=int, default=None)
+    parser.add_argument("--maxh", type=float, default=None, help="gel cell size away from the films")
+    parser.add_argument("--film-layers", type=int, default=2)
+    parser.add_argument("--teeth-threshold", type=float, default=0.5,
+                        help="teeth where the wave amplitude is at least this many film thicknesses")
+    parser.add_argument("--sweep", choices=("efo", "convergence"), default=None)
+    args = parser.parse_args(argv)
+    quick = args.quick or bool(os.environ.get("CI"))
+    scene = Scene(efi=args.efi, efo=args.efo, ri_tfi=args.ri_tfi, ro_tfo=args.ro_tfo, nu_film=args.nu_film,
+                  volume=args.volume)
+    default = Resolution(n_theta=96, order=2, maxh=0.5) if quick else Resolution()
+    res = Resolution(n_theta=args.n_theta or default.n_theta, order=args.order or default.order,
+                     maxh=args.maxh or default.maxh, film_layers=args.film_layers)
+    check_scene(scene)
+    check_resolution(res)
+    if not 0 < args.teeth_threshold < 100:
+        raise ValueError(f"teeth-threshold must lie in (0, 100), got {args.teeth_threshold!r}")
+    progress = Progress("gears")
+    if args.sweep is None:
+        summary = run_single(scene, res, args.out, threshold=args.teeth_threshold, progress=progress,
+                             quick=quick)
+        print(json.dumps({k: summary[k] for k in ("onset", "final", "seconds")}, indent=1, default=str))
+        return summary
+    run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep})
+    if args.sweep == "efo":
+        values = (1.0, 8.8) if quick else (1.0, 3.0, 5.8, 7.23, 8.8, 20.0, 100.0)
+        return sweep_efo(scene, res, run, values, progress)
+    resolutions = ([Resolution(64, 2, 0.4), Resolution(96, 2, 0.4)] if quick else
+                   [Resolution(128, 2, 0.3), Resolution(192, 2, 0.2), Resolution(256, 2, 0.2),
+                    Resolution(192, 3, 0.2), Resolution(320, 2, 0.15)])
+    return sweep_convergence(scene, resolutions, run, progress)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""Film-coated gel tube (gears, thesis ch. 4): the radial pre-buckling model, the rigid-mode
+supports, the foundation moduli of the gel and the gears script on a coarse case."""
+
+import json
+import math
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+from ngsolve.meshes import Make1DMesh
+
+import geometries as geo
+from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp
+from ngsgel.film_tube import FILM_INNER, FILM_OUTER, FilmTube, RadialTube, gel_plane_strain_moduli, ring_onset
+from ngsgel.kinematics import PolarPlaneStrain
+from ngsgel.supports import pin_rigid_modes
+
+import gears
+
+GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
+ES = 3e-3
+MU = -2e-4  # before any film buckles for the tubes below (onsets are below -4e-4 or absent)
+
+
+def test_polar_plane_strain_gel_annulus_shrinks_homogeneously():
+    """A free gel annulus in plane strain shrinks to the closed-form in-plane stretch."""
+    lam0 = GEL.lam_free(0.0)
+    mesh = Make1DMesh(8, mapping=lambda t: 1.0 + t)
+    prob = EquilibriumProblem(mesh, kinematics=PolarPlaneStrain(), materials=GEL, lam0=lam0, mu=0.0, order=2)
+    ramp(prob, prob.mu, -5e-4)
+    ratio = GEL.lam_plane_strain(-5e-4, lam0) / lam0
+    u = prob.displacement
+    for r in (1.0, 1.3, 2.0):
+        assert u(mesh(r)) / r == pytest.approx(ratio - 1.0, rel=1e-8)
+
+
+def test_gel_foundation_moduli():
+    """At free swelling the plane-strain moduli are the drained G and Poisson ratio; away from it
+    the area modulus is the derivative of the in-plane stress (finite difference)."""
+    lam0 = GEL.lam_free(0.0)
+    G, nu = gel_plane_strain_moduli(GEL, 0.0, lam0)
+    assert G == pytest.approx(GEL.shear_modulus(lam0), rel=1e-12)
+    assert nu == pytest.approx(GEL.drained_poisson_ratio(lam0), rel=1e-10)
+    mu = -5e-4
+    lam = GEL.lam_plane_strain(mu, lam0)
+    G, nu = gel_plane_strain_moduli(GEL, mu, lam0)
+    kappa = G / (1.0 - 2.0 * nu)
+
+    def in_plane_stress(area_strain):
+        s = lam * math.exp(area_strain / 2)
+        return GEL.mu_plane_strain(s, lam0) - mu  # sigma_rr of the homogeneous state at fixed mu
+
+    h = 1e-6
+    assert (in_plane_stress(h) - in_plane_stress(-h)) / (2 * h) == pytest.approx(kappa, rel=1e-5)
+
+
+@pytest.fixture(scope="module")
+def tube():
+    return FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=12.5 * ES, Efo=7.23 * ES)
+
+
+@pytest.fixture(scope="module")
+def radial_reference(tube):
+    return RadialTube(tube, order=4, gel_cells=64).solve(MU)
+
+
+def test_radial_model_is_converged(tube, radial_reference):
+    coarse = RadialTube(tube, order=2, gel_cells=16, film_cells=2).solve(MU)
+    assert coarse.sigma_inner == pytest.approx(radial_reference.sigma_inner, rel=2e-3)
+    assert coarse.sigma_outer == pytest.approx(radial_reference.sigma_outer, rel=2e-3)
+    # the films hold the gel back: the coated gel keeps more volume than a free one
+    free = (GEL.lam_plane_strain(MU, tube.lam0) / tube.lam0) ** 2
+    assert free < radial_reference.volume_fraction < 1.0
+    # shrinking compresses both films (positive hoop forces)
+    assert radial_reference.N_inner > 0 and radial_reference.N_outer > 0
+
+
+def pinned_annulus(tube, radius):
+    bundle = geo.tube_plane(Ri=1.0, Ro=2.0, tfi=tube.tfi, tfo=tube.tfo, maxh=0.5, n_theta=64, quad=True)
+    prob = EquilibriumProblem(bundle.mesh, kinematics=PlaneStrain(), materials=tube.materials(), lam0=tube.lam0,
+                              mu=0.0, order=2)
+    pin_rigid_modes(prob, radius=radius)
+    return bundle, prob
+
+
+def test_pinned_annulus_matches_radial_model_with_zero_reactions(tube, radial_reference):
+    """The 2D annulus held only by the three tangential pins: the pre-buckling state is the
+    axisymmetric one (hoop stresses as the 1D model), the pins carry no force, and pins on
+    another circle give the same stresses (the supports only fix the rigid motion)."""
+    hoops = {}
+    for radius in (1.0, 2.0):
+        bundle, prob = pinned_annulus(tube, radius)
+        assert np.count_nonzero(~np.array(list(prob.space.FreeDofs()))) == 3
+        prob.mu.Set(MU)
+        unbalanced = prob.state.CreateVector()
+        prob.residual(prob.state, unbalanced)  # the force scale: residual of the unrelaxed state
+        prob.mu.Set(0.0)
+        ramp(prob, prob.mu, MU)
+        residual = prob.state.CreateVector()
+        prob.residual(prob.state, residual)
+        reactions = residual.FV().NumPy()[~prob.free_mask]
+        assert np.max(np.abs(reactions)) < 1e-8 * np.max(np.abs(unbalanced.FV().NumPy()))
+        sigma = prob.stress()
+        e_t = ngs.CF((-ngs.y, ngs.x)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+        sigma2 = ngs.CF((sigma[0, 0], sigma[0, 1], sigma[1, 0], sigma[1, 1]), dims=(2, 2))
+        hoop = ngs.InnerProduct(sigma2 * e_t, e_t)
+        hoops[radius] = [prob.integrate(hoop, region=region) / bundle.region_measures[region]
+                         for region in (FILM_INNER, FILM_OUTER)]
+        # the discrete annulus is symmetric only under rotations by 2 pi / n_theta: a tangential
+        # displacement at the level of the geometry error, not of the pins
+        u = prob.displacement
+        u_t = math.sqrt(prob.integrate(ngs.InnerProduct(u, e_t) ** 2) / bundle.exact_measure)
+        u_rms = math.sqrt(prob.integrate(ngs.InnerProduct(u, u)) / bundle.exact_measure)
+        assert u_t < 1e-4 * u_rms
+    assert hoops[1.0][0] == pytest.approx(radial_reference.sigma_inner, rel=5e-3)
+    assert hoops[1.0][1] == pytest.approx(radial_reference.sigma_outer, rel=5e-3)
+    assert hoops[2.0] == pytest.approx(hoops[1.0], rel=1e-7)
+
+
+def test_pin_rigid_modes_rejects_bad_input(tube):
+    bundle = geo.tube_plane(Ri=1.0, Ro=2.0, tfi=tube.tfi, tfo=tube.tfo, maxh=0.5, n_theta=64, quad=True)
+    prob = EquilibriumProblem(bundle.mesh, kinematics=PlaneStrain(), materials=tube.materials(), lam0=tube.lam0)
+    with pytest.raises(ValueError, match="radius"):
+        pin_rigid_modes(prob, radius=-1.0)
+    with pytest.raises(ValueError, match="vertex"):
+        pin_rigid_modes(prob, radius=1.234)  # no vertex ring there
+
+
+def test_ring_onset_stiffer_outer_film_takes_over(tube):
+    """Analysis: with a soft outer film the inner film buckles first; a stiff one buckles first."""
+    mu_end = tube.mu_at_volume_fraction(0.7)
+    soft = FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=12.5 * ES, Efo=1.0 * ES)
+    stiff = FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=12.5 * ES, Efo=100.0 * ES)
+    inner_soft = ring_onset(soft, "inner", mu_end=mu_end, steps=20, tol=1e-7)
+    outer_soft = ring_onset(soft, "outer", mu_end=mu_end, steps=20, tol=1e-7)
+    assert inner_soft.mu is not None and (outer_soft.mu is None or outer_soft.mu < inner_soft.mu)
+    inner_stiff = ring_onset(stiff, "inner", mu_end=mu_end, steps=20, tol=1e-7)
+    outer_stiff = ring_onset(stiff, "outer", mu_end=mu_end, steps=20, tol=1e-7)
+    assert outer_stiff.mu is not None and (inner_stiff.mu is None or inner_stiff.mu < outer_stiff.mu)
+
+
+def test_bad_scene_input():
+    with pytest.raises(ValueError, match="efo"):
+        gears.main(["--efo", "-1", "--out", "/tmp/never"])
+    with pytest.raises(ValueError, match="n_theta"):
+        gears.main(["--n-theta", "30", "--out", "/tmp/never"])
+    with pytest.raises(ValueError, match="volume fraction|volume"):
+        gears.main(["--volume", "1.5", "--out", "/tmp/never"])
+
+
+def test_gears_quick_outer_teeth(tmp_path):
+    """Coarse thesis case Efi/Es = 12.5, Efo/Es = 100: outer teeth. The FE onset is on the outer
+    film, with the wave number of the ring-on-foundation analysis within 10 %, and the final gear
+    has outer teeth only, as many as the critical mode has waves."""
+    summary = gears.main(["--quick", "--efo", "100", "--out", str(tmp_path)])
+    onset, final = summary["onset"], summary["final"]
+    assert onset["kind"] == "bifurcation" and onset["mode_film"] == "outer"
+    n_analysis = summary["analysis"]["michell_outer"]["n_continuous"]
+    assert abs(onset["mode_k"] - n_analysis) <= 0.1 * n_analysis
+    assert summary["analysis"]["michell_first"] == "outer"
+    assert final["type"] == "outer teeth"
+    assert final["outer"]["tooth_count"] == onset["mode_k"]
+    assert json.load(open(tmp_path / "summary.json"))["final"]["type"] == "outer teeth"
+    assert (tmp_path / "gear.png").stat().st_size > 0
