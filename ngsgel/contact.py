@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import ngsolve as ngs
 
-__all__ = ["plane_contact", "SurfaceLine", "surface_line", "self_intersections"]
+__all__ = ["plane_contact", "SurfaceLine", "surface_line", "self_intersections", "crossing_pairs"]
 
 
 def plane_contact(*, component: int, position: float, side: int, penalty: float) -> Callable:
@@ -91,6 +91,12 @@ def self_intersections(polyline: np.ndarray, *, tolerance: float = 0.0) -> int:
     """Number of pairs of non-adjacent segments of the open ``polyline`` (shape ``(n, 2)``)
     that cross each other by more than ``tolerance`` (a length): a surface that passes through
     itself. Touching segments (a closed crease) do not count."""
+    return len(crossing_pairs(polyline, tolerance=tolerance))
+
+
+def crossing_pairs(polyline: np.ndarray, *, tolerance: float = 0.0) -> list[tuple[int, int]]:
+    """The crossing segment pairs ``(i, j)``, ``i < j - 1`` (segment ``i`` joins points ``i`` and
+    ``i + 1``), see :func:`self_intersections`."""
     p = np.asarray(polyline, dtype=float)
     if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] < 2:
         raise ValueError(f"polyline must have shape (n >= 2, 2), got {p.shape}")
@@ -110,4 +116,4 @@ def self_intersections(polyline: np.ndarray, *, tolerance: float = 0.0) -> int:
     mt = np.where(len_r > 0, tolerance / np.where(len_r > 0, len_r, 1), np.inf)
     mv = np.where(len_s > 0, tolerance / np.where(len_s > 0, len_s, 1), np.inf)
     crossing = (denom != 0) & (t > mt) & (t < 1 - mt) & (v > mv) & (v < 1 - mv)
-    return int(np.count_nonzero(crossing))
+    return [(int(a_), int(b_)) for a_, b_ in zip(i[crossing], j[crossing])]

@@ -41,7 +41,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain  # noqa: E402
-from ngsgel.contact import plane_contact, self_intersections, surface_line  # noqa: E402
+from ngsgel.contact import crossing_pairs, plane_contact, surface_line  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
 from ngsgel.stability import free_matrix, negative_count  # noqa: E402
@@ -120,8 +120,11 @@ def surface_state(prob, setup: Setup) -> dict:
     line = surface_line(prob.displacement, prob.mesh, "top")
     X, x, y = line.reference[:, 0], line.current[:, 0], line.current[:, 1]
     W = setup.width
+    pairs = crossing_pairs(line.current)
     out = {"penetration": max(0.0, -float(x.min()), float(x.max()) - W) / line.edge_length,
-           "self_crossings": self_intersections(line.current)}
+           "self_crossings": len(pairs),
+           # reference x of the first crossing (where the surface passed through itself)
+           "crossing_X": float(X[pairs[0][0]]) if pairs else float("nan")}
     for side, inner, plane in (("left", X > 0, x <= 0.0), ("right", X < W, x >= W)):
         tip = 0 if side == "left" else -1
         touching = inner & plane
@@ -234,18 +237,37 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
         state["max_crossings"] = max(state["max_crossings"], surf["self_crossings"])
         creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
         interior = surf["self_crossings"] > 0
+        near_mirror = min(surf["crossing_X"], setup.width - surf["crossing_X"]) < 2 * setup.top_h if interior else False
+        if interior and near_mirror and state["onset"] is None:
+            # the mirror crease closed, but its faces crossed inside the first two surface elements
+            # (the curved P2 edge at the singular tip looped through itself before reaching the
+            # plane, where the penalty acts): onset, reported as such, and the run stops here
+            row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
+            row["onset_kind"] = "tip self-crossing next to the mirror line"
+            state["onset"] = row
+            state["stop_at"] = rec.time
+            progress(f"CREASE ONSET (tip loop at reference x = {surf['crossing_X']:.4f}) at t = {rec.time:.4e}: "
+                     f"swollen depth {swell['swollen_depth']:.4f}; stopping, the faces crossed at the tip")
+            profiles[rec.time] = (x, y)
+            if series:
+                series.write(rec.time)
+            raise _Stop()
         if interior and state["interior"] is None:
+            row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
             # crease faces met away from the mirror lines, where no contact is modelled: the
             # surface passed through itself within this step; stop here
             state["interior"] = row
             state["stop_at"] = rec.time
-            progress(f"INTERIOR CREASE (faces met off the mirror lines) at t = {rec.time:.4e}: swollen depth "
-                     f"{swell['swollen_depth']:.4f}; stopping, self-contact there is not modelled")
+            progress(f"INTERIOR CREASE (faces met off the mirror lines) at t = {rec.time:.4e}, reference x = "
+                     f"{surf['crossing_X']:.4f}: swollen depth {swell['swollen_depth']:.4f}; stopping, self-contact there is not modelled")
             profiles[rec.time] = (x, y)
             if series:
                 series.write(rec.time)
             raise _Stop()
         if creased and state["onset"] is None:
+            # the faces met during this step: onset lies in (previous step, this step]
+            row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
+            row["onset_kind"] = "contact on the mirror line"
             state["onset"] = row
             state["stop_at"] = min(t_end, after_onset * rec.time)
             profiles[rec.time] = (x, y)
@@ -267,8 +289,12 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
             march(prob, t_end, dt_start=setup.ramp / 10, dt_max=dt_max, dt_min=setup.ramp * 1e-4,
                   output_times=outputs, on_step=on_step)
         except _Stop:
-            message = ("stopped: interior crease (self-contact off the mirror lines not modelled)"
-                       if state["interior"] is not None else f"stopped at {after_onset} x the onset time")
+            if state["interior"] is not None:
+                message = "stopped: interior crease (self-contact off the mirror lines not modelled)"
+            elif state["onset"] is not None and state["onset"]["onset_kind"].startswith("tip"):
+                message = "stopped at onset: the crease faces crossed at the tip, next to the mirror line"
+            else:
+                message = f"stopped at {after_onset} x the onset time"
         except TransientError as err:
             message = f"TransientError: {err}"
             progress(message)
@@ -282,11 +308,11 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
     summary = {"message": message, "steps": len(rows), "ndof": ndof, "wall_seconds": wall,
                "t_last": rows[-1]["time"] if rows else 0.0,
                "onset": None if onset is None else {k: onset[k] for k in (
-                   "time", "swollen_depth", "swollen_depth_current", "surface_ratio", "skin_ratio",
-                   "groove_depth", "crease_depth_left", "contact_points_left")},
+                   "time", "previous_time", "onset_kind", "swollen_depth", "swollen_depth_current", "surface_ratio",
+                   "skin_ratio", "groove_depth", "crease_depth_left", "contact_points_left")},
                "interior_crease": None if state["interior"] is None else {k: state["interior"][k] for k in (
-                   "time", "swollen_depth", "swollen_depth_current", "surface_ratio", "skin_ratio", "groove_depth",
-                   "creases_per_period", "crease_spacing")},
+                   "time", "previous_time", "swollen_depth", "swollen_depth_current", "surface_ratio", "skin_ratio",
+                   "groove_depth", "creases_per_period", "crease_spacing", "crossing_X")},
                "final": None if not rows else {k: rows[-1][k] for k in (
                    "time", "swollen_depth", "groove_depth", "crease_depth_left", "crease_depth_right",
                    "creases_per_period", "crease_spacing")},
@@ -485,10 +511,10 @@ def run_study(setup: Setup, out: str, *, cases: list[tuple[str, dict, float | No
             s = Setup(**{**setup.__dict__, **change})
             summ = run_transient(s, None, t_end=t_end, dt_max=dt_max, after_onset=1.0, quiet=True)
             onset = summ["onset"] or summ["interior_crease"] or {}
-            where = "mirror line" if summ["onset"] else ("interior" if summ["interior_crease"] else "none")
+            where = (summ["onset"]["onset_kind"] if summ["onset"] else ("interior" if summ["interior_crease"] else "none"))
             row = {"varied": kind, "crease_at": where, "top_h": s.top_h, "width": s.width, "amplitude": s.amplitude,
                    "viscosity": s.viscosity, "dt_max": dt_max, "ndof": summ["ndof"], "steps": summ["steps"],
-                   "wall_seconds": summ["wall_seconds"], "onset_time": onset.get("time"),
+                   "wall_seconds": summ["wall_seconds"], "onset_time": onset.get("time"), "onset_previous_time": onset.get("previous_time"),
                    "onset_swollen_depth": onset.get("swollen_depth"),
                    "onset_swollen_depth_current": onset.get("swollen_depth_current"),
                    "onset_depth_over_width": (onset["swollen_depth"] / s.width) if onset else None,
