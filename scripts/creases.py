@@ -238,28 +238,23 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
         creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
         interior = surf["self_crossings"] > 0
         near_mirror = min(surf["crossing_X"], setup.width - surf["crossing_X"]) < 2 * setup.top_h if interior else False
-        if interior and near_mirror and state["onset"] is None:
-            # the mirror crease closed, but its faces crossed inside the first two surface elements
-            # (the curved P2 edge at the singular tip looped through itself before reaching the
-            # plane, where the penalty acts): onset, reported as such, and the run stops here
+        if interior:
+            # The surface passed through itself within this step: next to a mirror line the crease
+            # there closed but its faces crossed inside the first two surface elements (the curved
+            # P2 edge at the singular tip looped through itself before reaching the plane, where
+            # the penalty acts) -- an onset; elsewhere faces met where no contact is modelled.
+            # Either way the run cannot go on honestly: record and stop.
             row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
-            row["onset_kind"] = "tip self-crossing next to the mirror line"
-            state["onset"] = row
-            state["stop_at"] = rec.time
-            progress(f"CREASE ONSET (tip loop at reference x = {surf['crossing_X']:.4f}) at t = {rec.time:.4e}: "
-                     f"swollen depth {swell['swollen_depth']:.4f}; stopping, the faces crossed at the tip")
-            profiles[rec.time] = (x, y)
-            if series:
-                series.write(rec.time)
-            raise _Stop()
-        if interior and state["interior"] is None:
-            row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
-            # crease faces met away from the mirror lines, where no contact is modelled: the
-            # surface passed through itself within this step; stop here
-            state["interior"] = row
-            state["stop_at"] = rec.time
-            progress(f"INTERIOR CREASE (faces met off the mirror lines) at t = {rec.time:.4e}, reference x = "
-                     f"{surf['crossing_X']:.4f}: swollen depth {swell['swollen_depth']:.4f}; stopping, self-contact there is not modelled")
+            where = f"reference x = {surf['crossing_X']:.4f}"
+            if near_mirror and state["onset"] is None:
+                row["onset_kind"] = "tip self-crossing next to the mirror line"
+                state["onset"] = row
+                progress(f"CREASE ONSET (tip loop at {where}) at t = {rec.time:.4e}: swollen depth "
+                         f"{swell['swollen_depth']:.4f}; stopping, the faces crossed at the tip")
+            else:
+                state["interior"] = row
+                progress(f"INTERIOR CREASE (faces met off the mirror lines, {where}) at t = {rec.time:.4e}: swollen "
+                         f"depth {swell['swollen_depth']:.4f}; stopping, self-contact there is not modelled")
             profiles[rec.time] = (x, y)
             if series:
                 series.write(rec.time)
@@ -291,7 +286,7 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
         except _Stop:
             if state["interior"] is not None:
                 message = "stopped: interior crease (self-contact off the mirror lines not modelled)"
-            elif state["onset"] is not None and state["onset"]["onset_kind"].startswith("tip"):
+            elif state["onset"]["onset_kind"].startswith("tip"):
                 message = "stopped at onset: the crease faces crossed at the tip, next to the mirror line"
             else:
                 message = f"stopped at {after_onset} x the onset time"
