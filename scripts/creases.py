@@ -434,6 +434,9 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
         if surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0:
             found.update(mu=mu, ratio=setup.ratio(mu), how="contact")
             return True
+        if surf["self_crossings"] > 0:  # the faces met by crossing at the tip (or elsewhere): stop there too
+            found.update(mu=mu, ratio=setup.ratio(mu), how=f"faces crossed at reference x = {surf['crossing_X']:.4f}")
+            return True
         return False
 
     message = ""
