@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from .kinematics import Axisymmetric
 from .newton import NewtonError
-from .stability import Spectrum, free_matrix, spectrum
+from .stability import Spectrum, free_matrix, load_rate, spectrum
 from .stepping import ramp
 
 __all__ = ["HarmonicStability", "HarmonicScan", "InstabilityOnset", "first_harmonic_instability"]
@@ -168,7 +168,8 @@ class HarmonicStability:
         count for wave number ``k``; comparable across ``k`` and with the 3D tangent.
 
         ``exclude_rigid``: drop the zero eigenvalues of rigid motions the constraints leave free
-        (``k = 0``: rotation about the axis; ``k = 1``: translation across and tilt), found as
+        (``k = 0``: rotation about and translation along the axis; ``k = 1``: translation across
+        and tilt), found as
         the computed modes closest to their span; the negative count drops with them."""
         K, M, free = self.matrices(k)
         volume = self._forms(k)[5] * self.problem.integrate(ngs.CF(1.0))
@@ -197,7 +198,7 @@ class HarmonicStability:
         u = self.problem.displacement
         r, z = ngs.x + u[0], ngs.y + u[1]  # current position: rotations turn the deformed body
         one, zero = ngs.CF(1.0), ngs.CF(0.0)
-        motions = {0: [(zero, zero, r)], 1: [(one, zero, -one), (-z, r, z)]}.get(k, [])
+        motions = {0: [(zero, zero, r), (zero, one, zero)], 1: [(one, zero, -one), (-z, r, z)]}.get(k, [])
         columns = []
         for a, b, c in motions:
             v = self.vector(k, a, b, c)
@@ -297,11 +298,14 @@ def first_harmonic_instability(problem, parameter: ngs.Parameter, target: float,
     if state["unstable"] is None:
         return InstabilityOnset(False, parameter.Get(), None, None, path)
     (lo, x_lo), (hi, x_hi) = state["stable"], state["unstable"]
+    # a bisection solve starts next to its solution: a relative tolerance alone would ask for
+    # less than the residual's round-off (the floor follow_path uses)
+    floor = 1e-10 * abs(hi - lo) * float(np.linalg.norm(load_rate(problem, parameter).residual))
 
     def solve_at(value: float, guess: np.ndarray) -> HarmonicScan:
         problem.restore_state(guess)
         parameter.Set(value)
-        problem.solve()
+        problem.solve(atol=floor)
         return check()
 
     while abs(hi - lo) > tolerance:

@@ -53,6 +53,9 @@ def mass_matrix(problem) -> ngs.BaseMatrix:
     return form.mat
 
 
+DENSE_INERTIA_LIMIT = 4000  # unknowns up to which a dense eigenvalue count is cheap enough
+
+
 def negative_count(K: sp.spmatrix) -> int:
     """Number of negative eigenvalues of the symmetric matrix ``K`` (exact, by inertia)."""
     lu = sla.splu(sp.csc_matrix(K), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
@@ -60,6 +63,8 @@ def negative_count(K: sp.spmatrix) -> int:
     # Diagonal pivoting with a symmetric permutation makes L U = P K P^T an LDL^T in disguise:
     # the signs of U's diagonal are the inertia. Any row swap would break that argument.
     if not np.array_equal(lu.perm_r, lu.perm_c):
+        if K.shape[0] <= DENSE_INERTIA_LIMIT:  # near-singular K: fall back to its eigenvalues
+            return int(np.count_nonzero(np.linalg.eigvalsh(K.toarray()) < 0))
         raise RuntimeError("SuperLU pivoted off the diagonal; the inertia of the tangent is unknown")
     return int(np.count_nonzero(lu.U.diagonal() < 0))
 

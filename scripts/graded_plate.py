@@ -1,0 +1,240 @@
+"""Free-swelling disk with graded cross-links (thesis ch. 5, MODEL.md scene C): the axisymmetric
+path, its stress profiles and the onset of non-axisymmetric buckling by angular wave number.
+
+The disk ``R = 1``, thickness ``t``, ``Nv(r) = n0 + (nR - n0) (r/R)^p``, ``chi = 0.5``, is
+equilibrated at ``mu0`` (a graded gel has no stress-free uniform reference) and ``mu`` is raised
+towards 0 along the axisymmetric path, made unique by a radial shear ``imperfection E0 t r/R``
+(``E0`` of the soft gel) on the top face — self-equilibrated, it bends without a net force: the
+flat state is mid-plane symmetric, and a plate whose softer centre makes it a bowl would
+otherwise stand at a pitchfork (the thesis seeds imperfections too). The load parameter is the free-swelling stretch ``s`` of
+the softest gel of the grading, ``mu = mu_free_soft(s)`` (a coefficient function of ``s``):
+nearly all the swelling happens close to ``mu = 0``, where equal steps in ``mu`` would be huge
+steps in strain (r-z section). At every converged state the second variation is scanned over
+wave numbers ``k = 0 .. kmax`` (``ngsgel.harmonic``: exact for the 3D body, one 2D eigenproblem per k); the
+first negative eigenvalue is bisected to the critical ``mu_c`` and its ``k_c``.
+
+Reported per run: ``mu_c``, ``k_c``, the critical swelling strain (defined here as the free-swelling
+mismatch ``lam_free(mu_c; soft) / lam_free(mu_c; stiff) - 1`` between the softest and the stiffest
+gel of the grading), the hoop-stress profile at onset and where it turns compressive, and the
+lowest eigenvalue by k along the path. What this script does not do: follow the non-axisymmetric
+post-buckled path (the thesis's final wave numbers are those of the fully swollen, post-buckled
+plate — a 3D thin solid or shell run from the critical mode).
+
+    python scripts/graded_plate.py --out results/graded_plate [--p 10 --n0 1e-2 --nR 1e-3 --t 0.01] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+import ngsolve as ngs
+
+from geometries import plate_section
+from geometries.fields import radial_grading
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
+from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
+from ngsgel.output import History, Progress, RunDirectory
+
+CHI = 0.5
+
+
+def _positive(name: str, value: float) -> float:
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def soft_stretch_load(n0: float, nR: float, mu0: float) -> tuple[ngs.Parameter, ngs.CoefficientFunction]:
+    """The parameter ``s`` (at its value for ``mu0``) and ``mu`` as its function."""
+    soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
+    s = ngs.Parameter(soft.lam_free(mu0))
+    J = s**3
+    mu = soft.Nv * (s * s - 1) / J + ngs.log(1 - 1 / J) + 1 / J + CHI / (J * J)
+    return s, mu
+
+
+def build(*, n0: float, nR: float, p: float, t: float, maxh: float, layers: int = 2, order: int = 3,
+          mu0: float = -1.0, imperfection: float = 1e-4) -> tuple[EquilibriumProblem, ngs.Parameter]:
+    """The axisymmetric section of the graded disk, equilibrated at ``mu0``, and its load
+    parameter (the soft gel's free-swelling stretch, see the module notes). The axial rigid
+    translation is removed by one statically determinate constraint (``u_z = 0`` at the centre
+    of the mid-plane): its reaction must vanish, so no state is changed."""
+    for name, value in (("n0", n0), ("nR", nR), ("p", p), ("t", t), ("maxh", maxh)):
+        _positive(name, value)
+    if not t < 0.5:
+        raise ValueError(f"t (thickness / radius) must be < 0.5 for a plate, got {t}")
+    if layers % 2:
+        raise ValueError(f"layers must be even (a mid-plane vertex on the axis), got {layers}")
+    stiff = FloryRehnerGel(Nv=max(n0, nR), chi=CHI)
+    lam0 = stiff.lam_free(mu0)  # also checks mu0
+    mesh = plate_section(R=1.0, t=t, maxh=maxh, layers=layers).mesh
+    gel = FloryRehnerGel(Nv=radial_grading(n0, nR, p, 1.0, model="axisymmetric"), chi=CHI)
+    stretch, mu = soft_stretch_load(n0, nR, mu0)
+    prob = EquilibriumProblem(mesh, kinematics=Axisymmetric(), materials=gel, lam0=lam0, mu=mu, order=order)
+    prob.fix("axis", "r")
+    soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
+    prob.add_traction("top", (imperfection * soft.youngs_modulus(lam0) * t * ngs.x, 0.0))
+    space = prob.space
+    coords = np.array([v.point for v in mesh.vertices])
+    centre = int(np.argmin(np.sum(coords**2, axis=1)))
+    space.FreeDofs().Clear(space.GetDofNrs(ngs.NodeId(ngs.VERTEX, centre))[1])
+    prob.solve()
+    return prob, stretch
+
+
+def mismatch_strain(stretch: float, n0: float, nR: float) -> tuple[float, float]:
+    """``mu`` and ``lam_free(mu; soft) / lam_free(mu; stiff) - 1`` at the soft stretch ``stretch``."""
+    soft, stiff = (FloryRehnerGel(Nv=n, chi=CHI) for n in (min(n0, nR), max(n0, nR)))
+    mu = soft.mu_free(stretch)
+    return mu, stretch / stiff.lam_free(mu) - 1.0
+
+
+def stress_profile(prob: EquilibriumProblem, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Radial and hoop Cauchy stress on the mid-plane (reference radii)."""
+    sigma = prob.stress()
+    mesh = prob.mesh
+    pts = [mesh(float(r), 0.0) for r in radii]
+    return np.array([sigma[0, 0](q) for q in pts]), np.array([sigma[2, 2](q) for q in pts])
+
+
+def compressive_from(radii: np.ndarray, hoop: np.ndarray) -> float | None:
+    """Smallest radius beyond which the hoop stress stays compressive (None if never)."""
+    negative = hoop < 0
+    if not negative[-1]:
+        return None
+    last_positive = np.flatnonzero(~negative)
+    return float(radii[last_positive[-1] + 1]) if len(last_positive) else float(radii[0])
+
+
+def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
+        maxh: float = 0.02, layers: int = 2, order: int = 3, mu0: float = -1.0, kmax: int = 15,
+        imperfection: float = 1e-4, quick: bool = False) -> dict:
+    if quick:
+        maxh, order, kmax = max(maxh, 0.05), 2, min(kmax, 8)
+    if not (isinstance(kmax, int) and kmax >= 2):
+        raise ValueError(f"kmax must be an integer >= 2, got {kmax!r}")
+    params = dict(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=mu0, kmax=kmax,
+                  imperfection=imperfection, chi=CHI, quick=quick)
+    run_dir = RunDirectory(out, params=params)
+    progress = Progress("graded_plate")
+    start = time.perf_counter()
+    prob, stretch = build(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=mu0,
+                          imperfection=imperfection)
+    stretch_end = FloryRehnerGel(Nv=min(n0, nR), chi=CHI).lam_free(0.0)
+    step = (stretch_end - stretch.Get()) / (25 if quick else 60)
+    hs = HarmonicStability(prob)
+    ks = list(range(0, kmax + 1))
+    radii = np.linspace(0.0, 1.0, 101)[1:]
+    centre = prob.mesh(0.0, 0.0)
+    rim = prob.mesh(1.0, 0.0)
+    last_stable: dict = {"s": stretch.Get(), "state": prob.save_state()}
+
+    with History(run_dir.file("path.csv")) as history:
+        def unstable(point) -> bool:
+            scan = hs.scan(ks, exclude_rigid=True)
+            lowest = scan.lowest
+            deflection = prob.displacement(rim)[1] - prob.displacement(centre)[1]
+            mu = mismatch_strain(point.parameter, n0, nR)[0]
+            history.append({"soft_stretch": point.parameter, "mu": mu,
+                            "rim_rise": deflection, "critical_k": scan.critical_k,
+                            **{f"lowest_k{k}": v for k, v in lowest.items()}})
+            progress(f"s = {point.parameter:.4f} mu = {mu:+.5f}  rim rise {deflection:+.4f}  lowest k = {scan.critical_k} "
+                     f"({min(lowest.values()):+.3e})")
+            if scan.unstable:
+                return True
+            last_stable.update(s=point.parameter, state=prob.save_state())
+            return False
+
+        path = follow_path(prob, stretch, method="natural", step=step, max_step=step, target=stretch_end,
+                           stop=unstable)
+    summary: dict = {"found": False, "rim_rise_end": float(prob.displacement(rim)[1] - prob.displacement(centre)[1])}
+    if path.stop_reason == "criterion":
+        s_unstable = path.points[-1].parameter
+        prob.restore_state(last_stable["state"])
+        stretch.Set(last_stable["s"])
+        onset = first_harmonic_instability(prob, stretch, s_unstable, ks=ks, step=s_unstable - last_stable["s"],
+                                           tolerance=1e-6, stability=hs)
+        if not onset.found:
+            raise RuntimeError(f"the instability seen at s = {s_unstable} was not found again on bisection")
+        mu_c, strain_c = mismatch_strain(onset.parameter, n0, nR)
+        radial, hoop = stress_profile(prob, radii)
+        np.savetxt(run_dir.file("onset_profile.csv"), np.column_stack([radii, radial, hoop]), delimiter=",",
+                   header="r,sigma_rr,sigma_hoop", comments="")
+        a, b, c = hs.mode(onset.k, onset.spectrum.modes[:, 0])
+        mode_r = np.array([[a(prob.mesh(float(r), 0.0)), b(prob.mesh(float(r), 0.0))] for r in radii])
+        amplitude = np.abs(mode_r[:, 1]) / np.max(np.abs(mode_r[:, 1]))
+        summary.update(found=True, mu_critical=mu_c, soft_stretch_critical=onset.parameter, k_critical=onset.k,
+                       critical_swelling_strain=strain_c,
+                       hoop_compressive_from_r=compressive_from(radii, hoop),
+                       mode_half_width_r=float(radii[np.argmax(amplitude >= 0.5)]))
+        plot(run_dir, radii, radial, hoop, amplitude, history_path=run_dir.file("path.csv"), summary=summary)
+    summary["wall_s"] = time.perf_counter() - start
+    summary["ndof_section"] = prob.space.ndof
+    run_dir.write_json("summary.json", summary)
+    return summary
+
+
+def plot(run_dir, radii, radial, hoop, amplitude, *, history_path, summary) -> None:
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = list(csv.DictReader(open(history_path)))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    ax1.plot(radii, radial, label="sigma_rr")
+    ax1.plot(radii, hoop, label="sigma_hoop")
+    ax1.plot(radii, amplitude * np.max(np.abs(hoop)), "k:", label="|w| of the critical mode (scaled)")
+    ax1.axhline(0, color="grey", lw=0.5)
+    ax1.set_xlabel("r / R")
+    ax1.set_ylabel("mid-plane Cauchy stress [kT/v]")
+    ax1.set_title(f"at onset mu = {summary['mu_critical']:.4f}, k = {summary['k_critical']}")
+    ax1.legend(fontsize=8)
+    stretches = np.array([float(r["soft_stretch"]) for r in rows])
+    for key in rows[0]:
+        if key.startswith("lowest_k"):
+            ax2.plot(stretches, [float(r[key]) for r in rows], label=key[7:])
+    ax2.axhline(0, color="grey", lw=0.5)
+    ax2.set_yscale("symlog", linthresh=1e-7)
+    ax2.set_xlabel("free-swelling stretch of the soft gel")
+    ax2.set_ylabel("lowest eigenvalue of wave number k")
+    ax2.legend(fontsize=7, ncol=3)
+    fig.tight_layout()
+    fig.savefig(run_dir.file("onset.png"), dpi=130)
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default="results/graded_plate")
+    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre")
+    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge")
+    parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
+    parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
+    parser.add_argument("--maxh", type=float, default=0.02, help="cell width along r")
+    parser.add_argument("--layers", type=int, default=2, help="cells through the thickness (even)")
+    parser.add_argument("--order", type=int, default=3)
+    parser.add_argument("--mu0", type=float, default=-1.0, help="starting chemical potential")
+    parser.add_argument("--kmax", type=int, default=15, help="largest wave number scanned")
+    parser.add_argument("--imperfection", type=float, default=1e-4, help="top dead load / (E0 t)")
+    parser.add_argument("--quick", action="store_true", help="coarse (also set by env CI)")
+    args = parser.parse_args(argv)
+    summary = run(args.out, n0=args.n0, nR=args.nR, p=args.p, t=args.t, maxh=args.maxh, layers=args.layers,
+                  order=args.order, mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection, quick=args.quick or bool(os.environ.get("CI")))
+    if summary["found"]:
+        print(f"onset: mu_c = {summary['mu_critical']:.5f}, k_c = {summary['k_critical']}, mismatch strain "
+              f"{summary['critical_swelling_strain']:.4f}, hoop compressive from r = {summary['hoop_compressive_from_r']}; "
+              f"{summary['wall_s']:.1f} s; results in {args.out}")
+    else:
+        print(f"stable and axisymmetric up to mu = 0 (rim rise {summary['rim_rise_end']:+.4f}); "
+              f"{summary['wall_s']:.1f} s; results in {args.out}")
+    return summary
+
+
+if __name__ == "__main__":
+    main()
