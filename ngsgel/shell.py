@@ -136,6 +136,7 @@ class GelShell:
         self._prescribed: list[tuple[str, int, ngs.CoefficientFunction]] = []
         self._surface_loads: list[tuple[str, ngs.CoefficientFunction]] = []
         self._point_loads: list[tuple[np.ndarray, np.ndarray, ngs.Parameter | None]] = []
+        self._edge_moments: list[tuple[str, ngs.CoefficientFunction]] = []
         self._space = None
         self._form = None
 
@@ -199,6 +200,16 @@ class GelShell:
             raise ValueError(f"load must have 3 components, got {cf.dim}")
         self._surface_loads.append((region, cf))
 
+    def add_edge_moment(self, boundary: str, moment) -> None:
+        """Dead bending moment per unit reference length (number or CoefficientFunction, e.g.
+        with a ``Parameter``) on the free boundary curve(s) ``boundary``: work-conjugate to the
+        edge's rotation about its tangent, positive turning the element normal towards the
+        outward co-normal."""
+        self._check_open()
+        self._check_edge(boundary)
+        cf = moment if isinstance(moment, ngs.CoefficientFunction) else ngs.CF(float(moment))
+        self._edge_moments.append((boundary, cf))
+
     def add_point_load(self, point: Sequence[float], force: Sequence[float], *,
                        scale: ngs.Parameter | None = None) -> None:
         """Concentrated dead force ``scale * force`` at the mesh vertex at ``point`` (must be a
@@ -247,6 +258,13 @@ class GelShell:
         energy += self._edge_energy(u, omega, kin) * ngs.ds(element_boundary=True)
         for region, load in self._surface_loads:
             energy += -ngs.InnerProduct(load, u) * ngs.ds(definedon=mesh.Boundaries(region))
+        for boundary, moment in self._edge_moments:
+            # the hybrid unknown is (minus) the edge rotation; an indicator of the curve restricts
+            # the element-boundary integral to it
+            on_curve = ngs.GridFunction(ngs.FacetSurface(mesh, order=0))
+            on_curve.Set(1.0, definedon=mesh.BBoundaries(boundary))
+            mu_ref = ngs.Cross(ngs.specialcf.normal(3), ngs.specialcf.tangential(3))
+            energy += on_curve * moment * (omega * mu_ref) * ngs.ds(element_boundary=True)
         form = ngs.BilinearForm(self._space, symmetric=True)
         form += ngs.Variation(energy).Compile()  # symbolic derivatives: ~15x faster assembly
         self._form = form
