@@ -40,11 +40,12 @@ import ngsolve as ngs  # noqa: E402
 
 import geometries as geo  # noqa: E402
 from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
-from ngsgel.continuation import StabilityOptions, follow_path  # noqa: E402
+from ngsgel.continuation import StabilityOptions, Stabilization, follow_path  # noqa: E402
 from ngsgel.film_tube import FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
-from ngsgel.stability import spectrum  # noqa: E402
+from ngsgel.stability import free_matrix, negative_count, spectrum  # noqa: E402
+from ngsgel.stepping import ramp  # noqa: E402
 from ngsgel.supports import pin_rigid_modes  # noqa: E402
 
 NV, CHI = 1e-3, 0.5
@@ -178,18 +179,29 @@ def classify(model: GearModel, threshold: float) -> dict:
 
 
 # ----------------------------------------------------------------------------- runs
-def onset(model: GearModel, *, history=None, progress=None, step_fraction: float = 0.08,
-          tol_fraction: float = 2e-4):
+def onset(model: GearModel, *, history=None, progress=None, start_mu: float | None = None,
+          step_fraction: float = 0.015, tol_fraction: float = 2e-4):
     """Follow ``mu`` down with stability checks until the first loss of stability, located to
-    ``tol_fraction`` of the ``mu`` span. Returns the path result, the onset record (None if
-    stable to the end) and the event."""
+    ``tol_fraction`` of the ``mu`` span. Without checks up to ``start_mu`` (a fraction of the
+    analysis's onset: the checks cost a spectrum per step, and a step that jumps over many
+    crossing wave numbers makes the location slow); if the state at ``start_mu`` is already
+    unstable the run starts over with checks from ``mu0``. Returns the path result, the onset
+    record (None if stable to the end) and the event."""
     p = model.problem
     span = abs(model.mu_end - model.tube.mu0)
+    saved = p.save_state()
+    checks = StabilityOptions(eigenvalues=2, tol=span * tol_fraction, switch=False)
+    if start_mu is not None and model.mu_end < start_mu < model.tube.mu0:
+        ramp(p, p.mu, start_mu)
+        if negative_count(free_matrix(p.tangent(p.state), p.free_mask)) > 0:
+            p.restore_state(saved)
+            p.mu.Set(model.tube.mu0)
     result = follow_path(
         p, p.mu, method="natural", step=span * step_fraction, max_step=span * step_fraction,
-        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress,
-        stability=StabilityOptions(eigenvalues=2, tol=span * tol_fraction, switch=False),
+        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress, stability=checks,
         stop=lambda pt: bool(pt.negative))
+    if result.points[0].negative:
+        raise RuntimeError("the first checked state is already unstable")  # guarded above; never silent
     events = [e for e in result.events if e.kind in ("bifurcation", "limit point")]
     if not events:
         return result, None, None
@@ -232,13 +244,46 @@ def analysis(scene: Scene, mu_end: float, stiffnesses=("michell", "lame")) -> di
     out = {}
     for stiffness in stiffnesses:
         for film in ("inner", "outer"):
-            o = ring_onset(tube, film, mu_end=mu_end, stiffness=stiffness, radial=radial, tol=1e-8)
+            o = ring_onset(tube, film, mu_end=mu_end, stiffness=stiffness, radial=radial, steps=16,
+                           tol=abs(mu_end) * 1e-4)
             out[f"{stiffness}_{film}"] = asdict(o)
         mi, mo = out[f"{stiffness}_inner"]["mu"], out[f"{stiffness}_outer"]["mu"]
         first = None if mi is None and mo is None else (
             "inner" if mo is None or (mi is not None and mi > mo) else "outer")
         out[f"{stiffness}_first"] = first
     return out
+
+
+def analysis_switch_point(base: Scene, stiffness: str, *, lo: float = 1.0, hi: float = 100.0,
+                          rtol: float = 1e-3) -> float | None:
+    """``Efo/Es`` at which the analysis's inner and outer onsets coincide (the thesis's 6.5), by
+    bisection in ``log Efo`` between ``lo`` (inner first) and ``hi`` (outer first); a film that does
+    not buckle before the end counts as buckling at ``mu_end``. None if ``lo``, ``hi`` do not
+    bracket a switch."""
+    def outer_first(efo: float) -> bool:
+        scene = Scene(**{**asdict(base), "efo": efo})
+        tube = scene.tube()
+        mu_end = tube.mu_at_volume_fraction(scene.volume)
+        radial = RadialTube(tube)
+        mus = {}
+        for film in ("inner", "outer"):
+            mu = ring_onset(tube, film, mu_end=mu_end, stiffness=stiffness, radial=radial, steps=20, tol=1e-8).mu
+            mus[film] = mu_end if mu is None else mu
+        return mus["outer"] > mus["inner"]
+
+    if outer_first(lo) or not outer_first(hi):
+        return None
+    while hi / lo > 1 + rtol:
+        mid = math.sqrt(lo * hi)
+        lo, hi = (lo, mid) if outer_first(mid) else (mid, hi)
+    return math.sqrt(lo * hi)
+
+
+def check_start(ana: dict, fraction: float = 0.8) -> float | None:
+    """Where the stability checks start: ``fraction`` of the earliest onset ``mu`` that the
+    Michell analysis predicts (None, i.e. from the start, if it predicts none)."""
+    mus = [ana[f"michell_{film}"]["mu"] for film in ("inner", "outer") if ana[f"michell_{film}"]["mu"] is not None]
+    return fraction * max(mus) if mus else None
 
 
 def draw_gear(model: GearModel, path, *, title: str = "", ax=None) -> None:
@@ -281,22 +326,28 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
     start = time.perf_counter()
     model = GearModel(scene, res)
     summary = {"ndof": model.problem.space.ndof, "mu_end": model.mu_end}
+    summary["analysis"] = analysis(scene, model.mu_end, ("michell",) if quick else ("michell", "lame"))
+    summary["analysis_seconds"] = time.perf_counter() - start
     with History(run.file("path.csv")) as history:
-        _, record, event = onset(model, history=history, progress=progress)
+        _, record, event = onset(model, history=history, progress=progress,
+                                 start_mu=check_start(summary["analysis"]))
         summary["onset"] = record
         summary["onset_seconds"] = time.perf_counter() - start
         p = model.problem
         if record is not None:
             switch_branch(model, event, record)
-            follow_path(p, p.mu, method="natural", step=abs(model.mu_end - p.mu.Get()) / 8,
-                        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress)
+            # pseudo-viscous damping (Abaqus *Stabilize, as the thesis): on the buckled branch the
+            # rotation of the pattern relative to the material is a nearly free mode that makes
+            # undamped Newton wander; the dissipated share of the energy is recorded and capped
+            follow_path(p, p.mu, method="natural", step=abs(model.mu_end - p.mu.Get()) / 12,
+                        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress,
+                        stabilization=Stabilization(cap=0.05))
     final = spectrum(p, count=2)
     summary["final"] = {"mu": p.mu.Get(), "volume_fraction": model.volume_fraction(),
                         "negative_eigenvalues": final.negative,
                         "lowest_eigenvalues": [float(v) for v in final.eigenvalues],
                         **classify(model, threshold)}
     summary["seconds"] = time.perf_counter() - start
-    summary["analysis"] = analysis(scene, model.mu_end, ("michell",) if quick else ("michell", "lame"))
     run.write_json("summary.json", summary)
     VTKSeries(model.mesh, p.fields(), run.file("gear")).write(0.0)
     kind = summary["final"]["type"]
@@ -322,8 +373,8 @@ def sweep_efo(base: Scene, res: Resolution, run: RunDirectory, values, progress=
         scene = Scene(**{**asdict(base), "efo": float(efo)})
         t0 = time.perf_counter()
         model = GearModel(scene, res)
-        _, record, _ = onset(model, progress=progress)
         ana = analysis(scene, model.mu_end)
+        _, record, _ = onset(model, progress=progress, start_mu=check_start(ana))
         row = {"efo": efo, "fe_mu_cr": record and record["mu_cr"], "fe_film": record and record["mode_film"],
                "fe_k": record and record["mode_k"], "fe_volume_cr": record and record["volume_fraction_cr"],
                "fe_ratio_inner_outer": record and record["mode_amplitude_ratio_inner_outer"],
@@ -359,10 +410,11 @@ def sweep_efo(base: Scene, res: Resolution, run: RunDirectory, values, progress=
 def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=None) -> list[dict]:
     """Onset mu and wave numbers of the critical mode at several resolutions, with wall times."""
     rows = []
+    start_mu = check_start(analysis(scene, scene.tube().mu_at_volume_fraction(scene.volume), ("michell",)))
     for res in resolutions:
         t0 = time.perf_counter()
         model = GearModel(scene, res)
-        _, record, _ = onset(model, progress=progress)
+        _, record, _ = onset(model, progress=progress, start_mu=start_mu)
         rows.append({**asdict(res), "ndof": model.problem.space.ndof, "mu_cr": record and record["mu_cr"],
                      "mode_film": record and record["mode_film"], "k_inner": record and record["mode_k_inner"],
                      "k_outer": record and record["mode_k_outer"],
@@ -421,7 +473,10 @@ def main(argv=None):
     run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep})
     if args.sweep == "efo":
         values = (1.0, 8.8) if quick else (1.0, 3.0, 5.8, 7.23, 8.8, 20.0, 100.0)
-        return sweep_efo(scene, res, run, values, progress)
+        rows = sweep_efo(scene, res, run, values, progress)
+        switch = {stiffness: analysis_switch_point(scene, stiffness) for stiffness in ("michell", "lame")}
+        run.write_json("switch_point.json", switch)
+        return rows
     resolutions = ([Resolution(64, 2, 0.4), Resolution(96, 2, 0.4)] if quick else
                    [Resolution(128, 2, 0.3), Resolution(192, 2, 0.2), Resolution(256, 2, 0.2),
                     Resolution(192, 3, 0.2), Resolution(320, 2, 0.15)])
