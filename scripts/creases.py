@@ -450,7 +450,8 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
             "wall_seconds": time.perf_counter() - wall0, "message": message, **found, "path": path}
 
 
-def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, quiet: bool = False) -> dict:
+def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, crease_meshes=None,
+                    quiet: bool = False) -> dict:
     setup.check()
     progress = Progress("creases-eq") if not quiet else (lambda msg: None)
     run_dir = RunDirectory(out, params={**setup.__dict__, "meshes": list(meshes), "amplitudes": list(amplitudes)}) \
@@ -476,7 +477,7 @@ def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, quiet:
                  f"{res['wall_seconds']:.1f}s")
     crease = []
     for a in amplitudes:
-        for h in meshes[-3:-1] if len(meshes) > 2 else meshes:
+        for h in crease_meshes or (meshes[-3:-1] if len(meshes) > 2 else meshes):
             s = Setup(**{**setup.__dict__, "amplitude": a, "top_h": h})
             with (History(run_dir.file(f"crease_path_a{a}_h{h}.csv")) if run_dir else contextlib.nullcontext()) as hist:
                 try:
@@ -547,6 +548,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--width", type=float, default=Setup.width, help="cell width W (half the crease period)")
     parser.add_argument("--thickness", type=float, default=Setup.thickness)
     parser.add_argument("--amplitude", type=float, default=Setup.amplitude, help="trough depth / W")
+    parser.add_argument("--crease-meshes", default="", help="--equilibrium: surface sizes for the crease threshold "
+                        "(default: the middle two of the linear-threshold meshes)")
     parser.add_argument("--amplitudes", default="0.1,0.03,0.01", help="--equilibrium: imperfections (a/W) for the crease threshold")
     parser.add_argument("--top-h", type=float, default=None, help="surface element size")
     parser.add_argument("--maxh", type=float, default=Setup.maxh)
@@ -565,7 +568,8 @@ def main(argv=None) -> dict:
     if args.equilibrium:
         meshes = [0.04, 0.02] if quick else [0.02, 0.01, 0.005, 0.0025]  # crease: the middle two
         amplitudes = [0.1] if quick else [float(a) for a in args.amplitudes.split(",")]
-        summary = run_equilibrium(setup, args.out, meshes=meshes, amplitudes=amplitudes)
+        crease_meshes = [float(h) for h in args.crease_meshes.split(",")] if args.crease_meshes else None
+        summary = run_equilibrium(setup, args.out, meshes=meshes, amplitudes=amplitudes, crease_meshes=crease_meshes)
         print(f"linear thresholds: {[(r['top_h'], r['ratio']) for r in summary['linear']]}; crease thresholds: "
               f"{[(r['amplitude'], r['top_h'], r.get('ratio')) for r in summary['crease']]}")
         return summary
