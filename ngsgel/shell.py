@@ -40,22 +40,28 @@ interior penalty written as an energy,
 
     sum_T int_dT  m_mumu theta_T + (alpha D / 2h) theta_T^2,   theta_T = angle jump_T + omega . mu_T,
 
-with ``m = -dpsi/dS`` the element's bending moment: consistent (the exact solution has
-``theta_T = 0`` and the first variation gives the moment–rotation coupling of the distributional
-curvature), and the whole Hessian stays symmetric positive definite at stable states, so the
-stability tools (inertia, spectra) see the physical stability of the shell. There is no shear
-strain (Kirchhoff–Love), hence no shear locking as ``t -> 0``.
+with ``m`` the element's bending moment: consistent (the exact solution has ``theta_T = 0`` and
+the first variation gives the moment–rotation coupling of the distributional curvature), and the
+whole Hessian stays symmetric positive definite at stable states, so the stability tools
+(inertia, spectra) see the physical stability of the shell. By default ``m`` in the edge terms is
+the linearised moment ``-t^3/12 C_ps(reference) : (S - |cof Fm N|^(1/2) grad N)`` (zero under
+uniform dilation, exact in the linear range); ``consistent_moment=True`` uses ``-dpsi/dS`` of the
+full energy instead, ~4x dearer to assemble (on the cap swelling benchmark the two differ by
+0.03 %). There is no shear strain (Kirchhoff–Love), hence no shear locking as ``t -> 0``.
 
 Boundary conditions: ``clamp`` (displacement and rotation), ``simply_support`` (displacement),
 ``symmetry`` (normal displacement and rotation), ``fix``/``prescribe`` (components), free edges
-by default; dead loads on surface regions and point loads at mesh vertices, scaled by
-``Parameter`` s. The class implements the ``NonlinearSystem`` protocol of ``ngsgel.newton`` and
-what ``ramp``, ``follow_path`` and ``ngsgel.stability`` use.
+by default; dead loads on surface regions, edge moments and point loads at mesh vertices, scaled
+by ``Parameter`` s. The class implements the ``NonlinearSystem`` protocol of ``ngsgel.newton`` and
+what ``ramp``, ``follow_path`` and ``ngsgel.stability`` use (``mass_matrix``, ``integrate``).
 
-Limits: the averaged edge normals are those of the reference, so an element may rotate by less
-than ~80 degrees against its neighbours' mean reference normal before ``acos`` degenerates (the
-rigid rotation of the whole shell is harmless only together with ``rotate_frame``); membrane
-locking of curved shells is not treated (use order 3 for caps at t/r < 0.01).
+Limits: each element measures its normal angle against the averaged edge normal; past ~80
+degrees of rotation against it ``acos`` degenerates, so runs with large rotations call
+``update_edge_normals`` between load steps (a strip rolled to a quarter circle this way is exact
+to 4e-5). Membrane locking of curved shells is not treated by Regge interpolation (order 3 gave
+the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %). Assembly costs ~10 ms per
+order-3 element and Newton step on one core (symbolic second derivatives of the layered gel
+energy), so the shell is cheap in unknowns, not yet per unknown.
 """
 
 from __future__ import annotations
@@ -137,6 +143,7 @@ class GelShell:
         self._surface_loads: list[tuple[str, ngs.CoefficientFunction]] = []
         self._point_loads: list[tuple[np.ndarray, np.ndarray, ngs.Parameter | None]] = []
         self._edge_moments: list[tuple[str, ngs.CoefficientFunction]] = []
+        self._point_constraints: list[tuple[int, int, float | ngs.Parameter]] = []  # vertex, component, value
         self._space = None
         self._form = None
 
@@ -210,6 +217,14 @@ class GelShell:
         cf = moment if isinstance(moment, ngs.CoefficientFunction) else ngs.CF(float(moment))
         self._edge_moments.append((boundary, cf))
 
+    def _vertex(self, point: Sequence[float]) -> int:
+        coords = np.array([v.point for v in self.mesh.vertices])
+        dist = np.linalg.norm(coords - np.asarray(point, dtype=float), axis=1)
+        vertex = int(np.argmin(dist))
+        if dist[vertex] > 1e-8 * max(1.0, float(np.ptp(coords))):
+            raise ValueError(f"point {tuple(point)} is not a mesh vertex (nearest is {dist[vertex]:.3g} away)")
+        return vertex
+
     def add_point_load(self, point: Sequence[float], force: Sequence[float], *,
                        scale: ngs.Parameter | None = None) -> None:
         """Concentrated dead force ``scale * force`` at the mesh vertex at ``point`` (must be a
@@ -218,12 +233,28 @@ class GelShell:
         force = np.asarray(force, dtype=float)
         if force.shape != (3,) or not np.all(np.isfinite(force)):
             raise ValueError(f"force must be 3 finite numbers, got {force!r}")
-        coords = np.array([v.point for v in self.mesh.vertices])
-        dist = np.linalg.norm(coords - np.asarray(point, dtype=float), axis=1)
-        vertex = int(np.argmin(dist))
-        if dist[vertex] > 1e-8 * max(1.0, float(np.ptp(coords))):
-            raise ValueError(f"point {tuple(point)} is not a mesh vertex (nearest is {dist[vertex]:.3g} away)")
-        self._point_loads.append((np.array([vertex]), force, scale))
+        self._point_loads.append((np.array([self._vertex(point)]), force, scale))
+
+    def prescribe_point(self, point: Sequence[float], component: str, value: float | ngs.Parameter) -> None:
+        """Displacement ``component`` of the mesh vertex at ``point`` equals ``value`` (a number or
+        a ``Parameter``, e.g. an indentation depth); ``reaction`` gives the force it takes."""
+        self._check_open()
+        if not isinstance(value, (Real, ngs.Parameter)):
+            raise ValueError(f"value must be a number or a Parameter, got {type(value).__name__}")
+        self._point_constraints.append((self._vertex(point), _COMPONENTS.index(self._component(component)), value))
+
+    def reaction(self, point: Sequence[float], component: str) -> float:
+        """Force the constraint at the vertex at ``point`` exerts on the shell in ``component``
+        (minus the internal force there; equals an applied point load at equilibrium)."""
+        self.form
+        dof = self._vertex_dofs(self._vertex(point))[_COMPONENTS.index(self._component(component))]
+        r = self.state.CreateVector()
+        self.form.Apply(self.state, r)
+        return float(r[dof])
+
+    def _vertex_dofs(self, vertex: int) -> np.ndarray:
+        V = self._space.components[0]
+        return np.array(V.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))) + self._space.Range(0).start
 
     # ------------------------------------------------------------------ spaces and forms
     @property
@@ -270,16 +301,17 @@ class GelShell:
         self._form = form
         self._scratch = ngs.GridFunction(self._space)
         self._target = ngs.GridFunction(self._space)
-        self.free_mask = np.array(list(self._space.FreeDofs()), dtype=bool)
+        free = self._space.FreeDofs()  # the space's own mask: solvers built from it see the points
+        for vertex, component, _ in self._point_constraints:
+            free.Clear(int(self._vertex_dofs(vertex)[component]))
+        self.free_mask = np.array(list(free), dtype=bool)
         self._solver = LinearSolver(self._space.FreeDofs(), inverse=self.inverse)
         skin = self._kinematics(self._scratch.components[0], list(self._scratch.components[2:]))
         bad = sum(ngs.IfPos(m, 0.0, 1.0) for m in skin["margins"])
         self._indicator = bad
         self._point_dofs = []
-        offset = self._space.Range(0).start
         for vertices, force, scale in self._point_loads:
-            dofs = V.GetDofNrs(ngs.NodeId(ngs.VERTEX, int(vertices[0])))
-            self._point_dofs.append((np.array(dofs) + offset, force, scale))
+            self._point_dofs.append((self._vertex_dofs(int(vertices[0])), force, scale))
 
     def _kinematics(self, u, lams) -> dict:
         """Layer deformation gradients, energy density and moments of displacement ``u`` and
@@ -406,6 +438,8 @@ class GelShell:
         target.vec[:] = 0.0
         for boundary, i, value in self._prescribed:
             target.components[0].components[i].Set(value, ngs.BBND, definedon=self.mesh.BBoundaries(boundary))
+        for vertex, component, value in self._point_constraints:
+            target.vec[int(self._vertex_dofs(vertex)[component])] = value.Get() if isinstance(value, ngs.Parameter) else float(value)
         out.data = target.vec
 
     def admissible(self, x) -> bool:

@@ -12,7 +12,7 @@ import pytest
 from netgen import occ
 
 import bench_shell  # scripts/ (tests/conftest.py): the benchmark's cases are the reference cases
-from geometries import plate_midsurface
+from geometries import cap_midsurface, plate_midsurface
 from ngsgel import FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp, spectrum
 from ngsgel.shell import GelShell
 
@@ -134,6 +134,29 @@ def test_cap_swelling_agrees_with_the_axisymmetric_solid(t):
     solid, _ = bench_shell.cap_section_rise(t, maxh=t / 8, layers=4)
     print(f"t={t}: shell {shell:.7f}, axisymmetric {solid:.7f}, {shell / solid - 1:+.2%}")
     assert shell == pytest.approx(solid, rel=0.01)
+
+
+def test_prescribed_apex_displacement_takes_the_point_load_as_reaction():
+    # Displacement control at a vertex (the microlens indentation) and force control are the same
+    # equilibrium: prescribing the apex deflection a point force F produced must need exactly F.
+    def cap() -> tuple[ngs.Mesh, GelShell]:
+        bundle = cap_midsurface(H=0.3, maxh=0.4, apex_radius=0.4, curve_order=3)
+        shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=0.02, mu=0.0)
+        shell.clamp("base")
+        return bundle.mesh, shell
+    apex = (0.0, 0.0, 0.3)
+    force = 1e-10  # w ~ 0.007 t
+    mesh, loaded = cap()
+    loaded.add_point_load(apex, (0.0, 0.0, -force))
+    loaded.solve()
+    w = loaded.displacement(mesh(*apex, ngs.BND))[2]
+    mesh, indented = cap()
+    depth = ngs.Parameter(0.0)
+    indented.prescribe_point(apex, "z", depth)
+    depth.Set(w)
+    indented.solve()
+    assert w < 0
+    assert indented.reaction(apex, "z") == pytest.approx(-force, rel=1e-8)
 
 
 @pytest.mark.slow  # ~2 min; scripts/bench_shell.py runs it
