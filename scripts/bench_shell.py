@@ -132,6 +132,11 @@ def rolled_strip_tip_error(*, maxh: float = 0.1, steps: int = 4) -> tuple[float,
     return error, shell.space.ndof, result.steps
 
 
+def record(history: History, rows: list[dict], row: dict) -> None:
+    history.append(row)
+    rows.append(row)
+
+
 def timed(f, *args, **kwargs):
     start = time.perf_counter()
     value = f(*args, **kwargs)
@@ -155,8 +160,7 @@ def run(out: str, *, quick: bool = False, t: float = 0.08) -> dict:
             (rise, ndof), wall = timed(f, t, **options)
             row = {"model": model, **{k: options.get(k, "") for k in ("maxh", "layers")}, "ndof": ndof,
                    "seconds": wall, "apex_rise": rise, "rel_error": abs(rise / reference - 1)}
-            history.append(row)
-            rows.append(row)
+            record(history, rows, row)
             progress(f"{model:12s} {options}: {ndof:6d} dofs {wall:7.1f}s  rise {rise:.7f}  "
                      f"error {row['rel_error']:.2%}")
     plate = []
@@ -167,8 +171,7 @@ def run(out: str, *, quick: bool = False, t: float = 0.08) -> dict:
             rate = math.log(plate[-1]["rel_error"] / error, 2) if plate else float("nan")
             row = {"t": 1e-3, "maxh": maxh, "ndof": ndof, "seconds": wall, "w_over_kirchhoff": ratio,
                    "rel_error": error, "rate": rate}
-            history.append(row)
-            plate.append(row)
+            record(history, plate, row)
             progress(f"thin plate t=1e-3 h={maxh}: {ndof} dofs {wall:.1f}s  w/w_K = {ratio:.7f}  "
                      f"error {error:.2e}  rate {rate:.2f}")
     point = []
@@ -176,8 +179,7 @@ def run(out: str, *, quick: bool = False, t: float = 0.08) -> dict:
         for apex_maxh in ((0.04,) if quick else (0.04, 0.02)):
             (ratio, ndof), wall = timed(apex_stiffness_over_reissner, maxh=0.2, apex_maxh=apex_maxh)
             row = {"apex_maxh": apex_maxh, "ndof": ndof, "seconds": wall, "k_over_reissner": ratio}
-            history.append(row)
-            point.append(row)
+            record(history, point, row)
             progress(f"cap point load t/r=0.005, apex h={apex_maxh}: {ndof} dofs {wall:.1f}s  "
                      f"k/k_Reissner = {ratio:.5f}")
     (error, ndof, steps), wall = timed(rolled_strip_tip_error)
