@@ -136,6 +136,19 @@ def test_cap_swelling_agrees_with_the_axisymmetric_solid(t):
     assert shell == pytest.approx(solid, rel=0.01)
 
 
+def test_prescribed_edge_displacement_lifts_a_simply_supported_plate_rigidly():
+    # Simply supported in-plane, rim lifted by a Parameter: the only equilibrium is the rigid
+    # translation (no strain, no curvature), to round-off.
+    bundle = plate_midsurface(R=1.0, maxh=0.5, curve_order=3)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=0.02, mu=0.0)
+    lift = ngs.Parameter(0.0)
+    shell.fix("rim", ("x", "y"))
+    shell.prescribe("rim", "z", lift)
+    lift.Set(0.01)
+    shell.solve()
+    assert l2(shell.displacement - ngs.CF((0.0, 0.0, 0.01)), bundle.mesh) < 1e-12
+
+
 def test_prescribed_apex_displacement_takes_the_point_load_as_reaction():
     # Displacement control at a vertex (the microlens indentation) and force control are the same
     # equilibrium: prescribing the apex deflection a point force F produced must need exactly F.
