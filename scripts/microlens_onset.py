@@ -1,0 +1,103 @@
+"""Hydrogel microlens under an inward apex load (thesis ch. 3, MODEL.md scene A): the first
+non-axisymmetric instability of the clamped cap against Fitch's thresholds.
+
+The cap (base radius ``R = 1``, apex height ``H``, thickness ``t = 0.005 r``, ``Nv = 1e-3``,
+``mu = 0``) is pushed down at its apex under displacement control along the axisymmetric path
+(r-z section; the load acts on an apex patch of radius ``apex``, the stand-in for the thesis's
+concentrated displacement). At every converged state the second variation is scanned over
+angular wave numbers ``k = 0 .. kmax`` (``ngsgel.harmonic``, exact for the 3D cap); the first
+negative eigenvalue is bisected to the critical depth ``d/H`` and its wave number ``k``, which is
+the number of vertices of the first polygonal state. Fitch's parameter
+``lambda = 2 [3 (1 - nu^2)]^(1/4) sqrt(H/t)`` (nu = 0.5) and his ranges (3 waves for
+lambda > 13.5, 4 for 9.9-13.5, 5 for 9.2-9.9, axisymmetric below 9.2) are tabulated next to ours.
+
+    python scripts/microlens_onset.py --out results/microlens_onset [--H 0.1 0.2 0.3 0.4] [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+
+import ngsolve as ngs
+
+from geometries import cap_section
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
+from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
+from ngsgel.output import History, Progress, RunDirectory
+
+GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
+THICKNESS_RATIO = 0.005  # t / r, r the mid-surface radius
+
+
+def fitch_lambda(H: float, t: float, nu: float = 0.5) -> float:
+    return 2.0 * (3.0 * (1.0 - nu**2)) ** 0.25 * math.sqrt(H / t)
+
+
+def fitch_waves(lam: float) -> str:
+    """Fitch's range for the first non-axisymmetric mode of a point-loaded clamped cap."""
+    if lam > 13.5:
+        return "3"
+    if lam > 9.9:
+        return "4"
+    if lam > 9.2:
+        return "5"
+    return "axisymmetric"
+
+
+def onset(H: float, *, maxh: float, layers: int = 2, order: int = 3, apex: float = 0.02, kmax: int = 8,
+          max_depth: float = 2.0) -> dict:
+    """First non-axisymmetric instability of the inward-loaded cap of apex height ``H``."""
+    if not 0 < H <= 1:
+        raise ValueError(f"H (apex height / base radius) must be in (0, 1], got {H}")
+    r = (1 + H * H) / (2 * H)
+    t = THICKNESS_RATIO * r
+    start = time.perf_counter()
+    mesh = cap_section(H=H, t=t, maxh=maxh, layers=layers, apex_radius=apex, apex_maxh=min(maxh, apex / 4)).mesh
+    prob = EquilibriumProblem(mesh, kinematics=Axisymmetric(), materials=GEL, lam0=GEL.lam_free(0.0), mu=0.0,
+                              order=order)
+    depth = ngs.Parameter(0.0)
+    prob.fix("base")
+    prob.fix("axis", "r")
+    prob.prescribe("apex", "z", -depth)
+    found = first_harmonic_instability(prob, depth, max_depth * H, ks=list(range(kmax + 1)), step=0.02 * H,
+                                       max_step=0.05 * H, tolerance=1e-4 * H, stability=HarmonicStability(prob))
+    lam = fitch_lambda(H, t)
+    return {"H": H, "t": t, "fitch_lambda": lam, "fitch_waves": fitch_waves(lam), "found": found.found,
+            "depth_over_H": found.parameter / H if found.found else None, "k": found.k,
+            "ndof_section": prob.space.ndof, "maxh": maxh, "order": order, "apex_radius": apex,
+            "wall_s": time.perf_counter() - start}
+
+
+def main(argv=None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default="results/microlens_onset")
+    parser.add_argument("--H", type=float, nargs="+", default=[0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4])
+    parser.add_argument("--maxh", type=float, default=0.01, help="cell length along the section")
+    parser.add_argument("--order", type=int, default=3)
+    parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch")
+    parser.add_argument("--kmax", type=int, default=8)
+    parser.add_argument("--quick", action="store_true", help="coarse, H = 0.3 only (also set by env CI)")
+    args = parser.parse_args(argv)
+    quick = args.quick or bool(os.environ.get("CI"))
+    heights = [0.3] if quick else args.H
+    maxh, order = (0.04, 2) if quick else (args.maxh, args.order)
+    run_dir = RunDirectory(args.out, params=dict(H=heights, maxh=maxh, order=order, apex=args.apex,
+                                                 kmax=args.kmax, t_over_r=THICKNESS_RATIO, quick=quick))
+    progress = Progress("microlens_onset")
+    rows = []
+    with History(run_dir.file("onset.csv")) as history:
+        for H in heights:
+            row = onset(H, maxh=maxh, order=order, apex=args.apex, kmax=args.kmax)
+            history.append(row)
+            rows.append(row)
+            progress(f"H/R = {H}: lambda = {row['fitch_lambda']:.2f} (Fitch: {row['fitch_waves']}), "
+                     + (f"k = {row['k']} at d/H = {row['depth_over_H']:.4f}" if row["found"]
+                        else "no instability") + f", {row['wall_s']:.1f} s")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
