@@ -419,7 +419,14 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
     prob = build_equilibrium(setup, imperfect=True, contact=True)
     wall0 = time.perf_counter()
     mu_start = brentq(lambda m: setup.ratio(m) - start_ratio, setup.mu0, mu_end, xtol=1e-12)
-    ramp(prob, prob.mu, mu_start, step=0.05)  # coarse steps where nothing happens (raises if it fails)
+    try:  # coarse steps up to the start ratio
+        ramp(prob, prob.mu, mu_start, step=0.05)
+    except RampError as err:  # the groove snapped already: the last converged mu is the threshold
+        last = prob.mu.Get()
+        return {"amplitude": setup.amplitude, "top_h": setup.top_h, "ndof": prob.space.ndof,
+                "wall_seconds": time.perf_counter() - wall0, "message": str(err), "mu": last,
+                "ratio": setup.ratio(last), "how": "snap before the start ratio (no converged state beyond)",
+                "path": []}
     found = {}
     path = []
 
