@@ -44,7 +44,7 @@ from ngsgel.continuation import StabilityOptions, Stabilization, follow_path  # 
 from ngsgel.film_tube import FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
-from ngsgel.stability import free_matrix, negative_count, spectrum  # noqa: E402
+from ngsgel.stability import free_matrix, load_rate, mode_function, negative_count, spectrum  # noqa: E402
 from ngsgel.stepping import ramp  # noqa: E402
 from ngsgel.supports import pin_rigid_modes  # noqa: E402
 
@@ -181,60 +181,91 @@ def classify(model: GearModel, threshold: float) -> dict:
 # ----------------------------------------------------------------------------- runs
 def onset(model: GearModel, *, history=None, progress=None, start_mu: float | None = None,
           step_fraction: float = 0.015, tol_fraction: float = 2e-4):
-    """Follow ``mu`` down with stability checks until the first loss of stability, located to
-    ``tol_fraction`` of the ``mu`` span. Without checks up to ``start_mu`` (a fraction of the
-    analysis's onset: the checks cost a spectrum per step, and a step that jumps over many
-    crossing wave numbers makes the location slow); if the state at ``start_mu`` is already
-    unstable the run starts over with checks from ``mu0``. Returns the path result, the onset
-    record (None if stable to the end) and the event."""
+    """Follow ``mu`` down with stability checks until the first loss of stability, then locate it
+    by bisection on the exact negative count to ``tol_fraction`` of the ``mu`` span.
+
+    Without checks up to ``start_mu`` (a fraction of the analysis's onset: a check costs a
+    spectrum); if the state there is already unstable the run starts over with checks from
+    ``mu0``. The location is done here rather than by the driver's secant on the lowest
+    eigenvalue: the lowest eigenvalue before the onset belongs to a soft global (ovalisation)
+    mode of the tube that never crosses zero, so the secant on it converges only at bisection
+    speed, each iteration paying a full spectrum; the count needs one factorisation.
+    Returns the onset record (None if stable to the end) and the critical state, ``mu`` and
+    mode (a free-dof vector)."""
     p = model.problem
     span = abs(model.mu_end - model.tube.mu0)
     saved = p.save_state()
-    checks = StabilityOptions(eigenvalues=2, tol=span * tol_fraction, switch=False)
+
+    def negative() -> int:
+        return negative_count(free_matrix(p.tangent(p.state), p.free_mask))
+
     if start_mu is not None and model.mu_end < start_mu < model.tube.mu0:
         ramp(p, p.mu, start_mu)
-        if negative_count(free_matrix(p.tangent(p.state), p.free_mask)) > 0:
+        if negative() > 0:
             p.restore_state(saved)
             p.mu.Set(model.tube.mu0)
     result = follow_path(
         p, p.mu, method="natural", step=span * step_fraction, max_step=span * step_fraction,
-        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress, stability=checks,
-        stop=lambda pt: bool(pt.negative))
+        target=model.mu_end, qoi=model.qoi(), history=history, progress=progress, keep_states=True,
+        stability=StabilityOptions(eigenvalues=2, locate=False), stop=lambda pt: bool(pt.negative))
     if result.points[0].negative:
-        raise RuntimeError("the first checked state is already unstable")  # guarded above; never silent
-    events = [e for e in result.events if e.kind in ("bifurcation", "limit point")]
-    if not events:
-        return result, None, None
-    event = events[0]
-    point = next(pt for pt in result.points if pt.events and pt.events[0] == event.kind)
-    mode_waves = {film: model.waves(event.mode, film) for film in ("inner", "outer")}
+        raise RuntimeError("the first checked state is unstable although it was checked stable")
+    if not result.points[-1].negative:
+        return None, None
+    # absolute floor as the driver's: a solve starting next to its solution cannot reduce a
+    # round-off residual by a relative factor
+    atol = 1e-10 * span * step_fraction * float(np.linalg.norm(load_rate(p, p.mu).residual))
+    a, b = result.points[-2], result.points[-1]
+    lo, hi = (a.parameter, a.state), (b.parameter, b.state)  # stable, unstable
+    while abs(hi[0] - lo[0]) > tol_fraction * span:
+        s = 0.5
+        p.restore_state(lo[1] + s * (hi[1] - lo[1]))
+        p.mu.Set(lo[0] + s * (hi[0] - lo[0]))
+        p.solve(atol=atol)
+        point = (p.mu.Get(), p.save_state())
+        if negative() > 0:
+            hi = point
+        else:
+            lo = point
+    p.restore_state(hi[1])
+    p.mu.Set(hi[0])
+    spec = spectrum(p, count=4)
+    phi = spec.modes[:, 0]  # the most negative: the buckling pair (the soft global mode stays > 0)
+    mode = mode_function(p, phi)
+    qoi = {k: f() for k, f in model.qoi().items()}
+    mode_waves = {film: model.waves(mode, film) for film in ("inner", "outer")}
     located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
-    record = {"kind": event.kind, "mu_cr": event.parameter, "mu_error": event.parameter_error,
-              "negative_after": event.negative_after, "volume_fraction_cr": point.qoi["volume_fraction"],
-              "hoop_inner_cr": point.qoi["hoop_inner"], "hoop_outer_cr": point.qoi["hoop_outer"],
+    record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": spec.negative,
+              "eigenvalues_after": [float(v) for v in spec.eigenvalues],
+              "volume_fraction_cr": qoi["volume_fraction"],
+              "hoop_inner_cr": qoi["hoop_inner"], "hoop_outer_cr": qoi["hoop_outer"],
               "mode_k_inner": mode_waves["inner"]["k"], "mode_k_outer": mode_waves["outer"]["k"],
               "mode_amplitude_ratio_inner_outer": mode_waves["inner"]["amplitude"] / mode_waves["outer"]["amplitude"],
               "mode_film": located, "mode_k": mode_waves[located]["k"],
               "mode_film_amplitude": mode_waves[located]["amplitude"]}
-    return result, record, event
+    if history is not None:
+        history.append({"step": "onset", "parameter": record["mu_cr"], **qoi, "negative": spec.negative,
+                        "events": f"onset {located} film, {record['mode_k']} waves"})
+    return record, (hi[1], hi[0], mode)
 
 
-def switch_branch(model: GearModel, event, record: dict, *, film_amplitude: float = 0.25,
+def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: float = 0.25,
                   overshoot: float = 0.03) -> None:
-    """Put the problem on the buckled branch: the located critical state plus its critical mode,
-    scaled so that the buckling film's radial amplitude is ``film_amplitude`` film thicknesses.
+    """Put the problem next to the buckled branch: the located critical state plus its critical
+    mode, scaled so that the buckling film's radial amplitude is ``film_amplitude`` film
+    thicknesses, at ``overshoot`` of the ``mu`` span past the critical point.
 
     The driver's own branch switch continues with stability checks, and on the buckled branch of
     a ring the rotation of the pattern relative to the material is a (discretely broken) zero mode
-    whose eigenvalue flips sign at round-off level: those checks would report spurious events.
-    So the switch is done here and the buckled branch is followed without checks; the final state
-    gets one spectrum."""
+    whose eigenvalue flips sign at round-off level: those checks report spurious events and fail
+    to locate them. So the switch is done here and the buckled branch is followed without checks;
+    the final state gets one spectrum."""
+    state, mu, mode = critical
     p = model.problem
     thickness = model.tube.tfi if record["mode_film"] == "inner" else model.tube.tfo
     scale = film_amplitude * thickness / record["mode_film_amplitude"]
-    p.restore_state(event.state + scale * event.mode.vec.FV().NumPy())
-    # a little past the critical point, where the buckled branch exists next to the perturbed state
-    p.mu.Set(event.parameter + overshoot * (model.mu_end - model.tube.mu0))
+    p.restore_state(state + scale * mode.vec.FV().NumPy())
+    p.mu.Set(mu + overshoot * (model.mu_end - model.tube.mu0))
 
 
 def analysis(scene: Scene, mu_end: float, stiffnesses=("michell", "lame")) -> dict:
@@ -329,13 +360,13 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
     summary["analysis"] = analysis(scene, model.mu_end, ("michell",) if quick else ("michell", "lame"))
     summary["analysis_seconds"] = time.perf_counter() - start
     with History(run.file("path.csv")) as history:
-        _, record, event = onset(model, history=history, progress=progress,
+        record, critical = onset(model, history=history, progress=progress,
                                  start_mu=check_start(summary["analysis"]))
         summary["onset"] = record
         summary["onset_seconds"] = time.perf_counter() - start
         p = model.problem
         if record is not None:
-            switch_branch(model, event, record)
+            switch_branch(model, critical, record)
             # pseudo-viscous damping (Abaqus *Stabilize, as the thesis): on the buckled branch the
             # rotation of the pattern relative to the material is a nearly free mode that makes
             # undamped Newton wander; the dissipated share of the energy is recorded and capped
@@ -374,7 +405,7 @@ def sweep_efo(base: Scene, res: Resolution, run: RunDirectory, values, progress=
         t0 = time.perf_counter()
         model = GearModel(scene, res)
         ana = analysis(scene, model.mu_end)
-        _, record, _ = onset(model, progress=progress, start_mu=check_start(ana))
+        record, _ = onset(model, progress=progress, start_mu=check_start(ana))
         row = {"efo": efo, "fe_mu_cr": record and record["mu_cr"], "fe_film": record and record["mode_film"],
                "fe_k": record and record["mode_k"], "fe_volume_cr": record and record["volume_fraction_cr"],
                "fe_ratio_inner_outer": record and record["mode_amplitude_ratio_inner_outer"],
@@ -414,7 +445,7 @@ def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=Non
     for res in resolutions:
         t0 = time.perf_counter()
         model = GearModel(scene, res)
-        _, record, _ = onset(model, progress=progress, start_mu=start_mu)
+        record, _ = onset(model, progress=progress, start_mu=start_mu)
         rows.append({**asdict(res), "ndof": model.problem.space.ndof, "mu_cr": record and record["mu_cr"],
                      "mode_film": record and record["mode_film"], "k_inner": record and record["mode_k_inner"],
                      "k_outer": record and record["mode_k_outer"],
@@ -477,9 +508,9 @@ def main(argv=None):
         switch = {stiffness: analysis_switch_point(scene, stiffness) for stiffness in ("michell", "lame")}
         run.write_json("switch_point.json", switch)
         return rows
-    resolutions = ([Resolution(64, 2, 0.4), Resolution(96, 2, 0.4)] if quick else
-                   [Resolution(128, 2, 0.3), Resolution(192, 2, 0.2), Resolution(256, 2, 0.2),
-                    Resolution(192, 3, 0.2), Resolution(320, 2, 0.15)])
+    resolutions = ([Resolution(64, 2, 0.5), Resolution(96, 2, 0.5)] if quick else
+                   [Resolution(64, 2, 0.5), Resolution(96, 2, 0.5), Resolution(128, 2, 0.5),
+                    Resolution(96, 3, 0.5), Resolution(192, 2, 0.3)])
     return sweep_convergence(scene, resolutions, run, progress)
 
 
