@@ -351,7 +351,7 @@ def draw_gear(model: GearModel, path, *, title: str = "", ax=None) -> None:
 
 
 def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, progress=None,
-               quick: bool = False) -> dict:
+               quick: bool = False, post_buckling: bool = True) -> dict:
     run = RunDirectory(out, params={"scene": asdict(scene), "resolution": asdict(res), "Es": ES, "Nv": NV,
                                     "chi": CHI, "Ri": RI, "Ro": RO, "teeth_threshold": threshold})
     start = time.perf_counter()
@@ -365,7 +365,7 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
         summary["onset"] = record
         summary["onset_seconds"] = time.perf_counter() - start
         p = model.problem
-        if record is not None:
+        if record is not None and post_buckling:
             switch_branch(model, critical, record)
             # pseudo-viscous damping (Abaqus *Stabilize, as the thesis): on the buckled branch the
             # rotation of the pattern relative to the material is a nearly free mode that makes
@@ -373,18 +373,22 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
             follow_path(p, p.mu, method="natural", step=abs(model.mu_end - p.mu.Get()) / 12,
                         target=model.mu_end, qoi=model.qoi(), history=history, progress=progress,
                         stabilization=Stabilization(cap=0.05))
-    final = spectrum(p, count=2)
-    summary["final"] = {"mu": p.mu.Get(), "volume_fraction": model.volume_fraction(),
-                        "negative_eigenvalues": final.negative,
-                        "lowest_eigenvalues": [float(v) for v in final.eigenvalues],
-                        **classify(model, threshold)}
+    if post_buckling:
+        final = spectrum(p, count=2)
+        summary["final"] = {"mu": p.mu.Get(), "volume_fraction": model.volume_fraction(),
+                            "negative_eigenvalues": final.negative,
+                            "lowest_eigenvalues": [float(v) for v in final.eigenvalues],
+                            **classify(model, threshold)}
+    else:  # the gear's type predicted by the film the critical mode lives on
+        summary["final"] = None
+        summary["predicted_type"] = None if record is None else f"{record['mode_film']} teeth"
     summary["seconds"] = time.perf_counter() - start
     run.write_json("summary.json", summary)
     VTKSeries(model.mesh, p.fields(), run.file("gear")).write(0.0)
-    kind = summary["final"]["type"]
+    kind = summary["final"]["type"] if post_buckling else "onset only"
     draw_gear(model, run.file("gear.png"),
               title=f"Efi/Es={scene.efi:g}, Efo/Es={scene.efo:g}, Ri/tfi={scene.ri_tfi:g}, Ro/tfo={scene.ro_tfo:g}: "
-                    f"{kind}, volume {summary['final']['volume_fraction']:.3f}")
+                    f"{kind}, volume {model.volume_fraction():.3f}")
     return summary
 
 
@@ -483,6 +487,8 @@ def main(argv=None):
     parser.add_argument("--film-layers", type=int, default=2)
     parser.add_argument("--teeth-threshold", type=float, default=0.5,
                         help="teeth where the wave amplitude is at least this many film thicknesses")
+    parser.add_argument("--onset-only", action="store_true",
+                        help="stop after the located onset (no post-buckling path)")
     parser.add_argument("--sweep", choices=("efo", "convergence"), default=None)
     args = parser.parse_args(argv)
     quick = args.quick or bool(os.environ.get("CI"))
@@ -498,8 +504,8 @@ def main(argv=None):
     progress = Progress("gears")
     if args.sweep is None:
         summary = run_single(scene, res, args.out, threshold=args.teeth_threshold, progress=progress,
-                             quick=quick)
-        print(json.dumps({k: summary[k] for k in ("onset", "final", "seconds")}, indent=1, default=str))
+                             quick=quick, post_buckling=not args.onset_only)
+        print(json.dumps({k: summary.get(k) for k in ("onset", "final", "seconds")}, indent=1, default=str))
         return summary
     run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep})
     if args.sweep == "efo":
