@@ -322,7 +322,8 @@ def draw_gear(model: GearModel, path, *, title: str = "", ax=None) -> None:
     u = model.problem.displacement
     t = model.tube
     theta = 2 * np.pi * np.arange(SAMPLES + 1) / SAMPLES
-    eps = 1e-6
+    # stay inside the boundary circles, which the mesh approximates by chords
+    eps = 0.3 * min(t.tfi, t.tfo) / model.res.film_layers
 
     def curve(radius):
         s = sample_on_circle(u, model.mesh, center=(0.0, 0.0), radius=radius, n=SAMPLES)

@@ -131,11 +131,11 @@ def test_ring_onset_stiffer_outer_film_takes_over(tube):
     mu_end = tube.mu_at_volume_fraction(0.7)
     soft = FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=12.5 * ES, Efo=1.0 * ES)
     stiff = FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=12.5 * ES, Efo=100.0 * ES)
-    inner_soft = ring_onset(soft, "inner", mu_end=mu_end, steps=20, tol=1e-7)
-    outer_soft = ring_onset(soft, "outer", mu_end=mu_end, steps=20, tol=1e-7)
+    inner_soft = ring_onset(soft, "inner", mu_end=mu_end, steps=8, tol=1e-6)
+    outer_soft = ring_onset(soft, "outer", mu_end=mu_end, steps=8, tol=1e-6)
     assert inner_soft.mu is not None and (outer_soft.mu is None or outer_soft.mu < inner_soft.mu)
-    inner_stiff = ring_onset(stiff, "inner", mu_end=mu_end, steps=20, tol=1e-7)
-    outer_stiff = ring_onset(stiff, "outer", mu_end=mu_end, steps=20, tol=1e-7)
+    inner_stiff = ring_onset(stiff, "inner", mu_end=mu_end, steps=8, tol=1e-6)
+    outer_stiff = ring_onset(stiff, "outer", mu_end=mu_end, steps=8, tol=1e-6)
     assert outer_stiff.mu is not None and (inner_stiff.mu is None or inner_stiff.mu < outer_stiff.mu)
 
 
