@@ -170,14 +170,19 @@ class HarmonicStability:
         ``exclude_rigid``: drop the zero eigenvalues of rigid motions the constraints leave free
         (``k = 0``: rotation about and translation along the axis; ``k = 1``: translation across
         and tilt), found as
-        the computed modes closest to their span; the negative count drops with them."""
+        the computed modes closest to their span; eigenvalues within ``1e-10`` of the matrix scale
+        below zero are not counted as negative."""
         K, M, free = self.matrices(k)
         volume = self._forms(k)[5] * self.problem.integrate(ngs.CF(1.0))
         rigid = self.rigid_modes(k) if exclude_rigid else np.zeros((len(free), 0))[free]
         n = rigid.shape[1]
-        full = spectrum(_HarmonicSystem(free, volume), count=count + n, K=K, M=M)
         if n == 0:
-            return full
+            return spectrum(_HarmonicSystem(free, volume), count=count, K=K, M=M)
+        # The inertia of a singular K is decided by round-off in its zero pivots; shifted by a
+        # hair, the rigid zeros count as positive and only eigenvalues below -shift as negative.
+        shift = 1e-10 * float(np.max(np.abs(K.diagonal() / M.diagonal())))
+        full = spectrum(_HarmonicSystem(free, volume), count=count + n, K=K + shift * M, M=M)
+        full.eigenvalues = full.eigenvalues - shift
         # M-orthonormal basis of the rigid span, then each mode's share in it
         Q, _ = np.linalg.qr(rigid)
         G = Q.T @ (M @ Q)
@@ -187,8 +192,7 @@ class HarmonicStability:
             "ij,ij->j", full.modes, M @ full.modes)
         drop = np.argsort(share)[-n:]
         keep = np.setdiff1d(np.arange(len(full.eigenvalues)), drop)
-        negative = full.negative - int(np.count_nonzero(full.eigenvalues[drop] < 0))
-        return Spectrum(eigenvalues=full.eigenvalues[keep], modes=full.modes[:, keep], negative=negative)
+        return Spectrum(eigenvalues=full.eigenvalues[keep], modes=full.modes[:, keep], negative=full.negative)
 
     def rigid_modes(self, k: int) -> np.ndarray:
         """Free-dof vectors of the rigid motions of the current configuration that wave number
