@@ -9,7 +9,7 @@ its regions and boundaries).  Models: ``"solid3d"``, ``"plane"`` (plane strain),
 and numpy; ``ngsgel`` uses it, not the other way round.
 """
 
-from .basic import block, disk, rectangle
+from .basic import ball_octant, ball_section, block, disk, rectangle
 from .caps import cap_midsurface, cap_section, cap_solid
 from .common import (AXISYMMETRIC, PLANE, SOLID3D, SURFACE, MeshBundle, aspect_bound,
                      aspect_ratios)
@@ -21,7 +21,7 @@ from .tubes import tube_plane, tube_section, tube_solid
 __all__ = [
     "MeshBundle", "SOLID3D", "PLANE", "AXISYMMETRIC", "SURFACE",
     "aspect_ratios", "aspect_bound",
-    "rectangle", "block", "disk",
+    "rectangle", "block", "disk", "ball_octant", "ball_section",
     "cap_solid", "cap_section", "cap_midsurface",
     "tube_plane", "tube_section", "tube_solid",
     "plate_solid", "plate_section", "plate_midsurface",

@@ -1,4 +1,5 @@
-"""Simple shapes: rectangle (2D), block (3D) and disk (2D).
+"""Simple shapes: rectangle (2D), block (3D), disk (2D), and a ball as a 3D octant or an
+axisymmetric quarter-disk section.
 
 Names
 -----
@@ -7,6 +8,10 @@ rectangle: region ``"gel"``; boundaries ``"left"`` (x = x0), ``"right"`` (x = x0
 block: region ``"gel"``; boundaries ``"left"``/``"right"`` (x min/max),
 ``"front"``/``"back"`` (y min/max), ``"bottom"``/``"top"`` (z min/max).
 disk: region ``"gel"``; boundary ``"outer"``.
+ball_octant: region ``"gel"``; boundaries ``"xsym"``, ``"ysym"``, ``"zsym"`` (the symmetry planes
+x, y, z = 0) and ``"surface"``.
+ball_section: region ``"gel"``; boundaries ``"axis"`` (r = 0), ``"equator"`` (z = 0) and
+``"surface"``; the upper half of the ball.
 """
 
 from __future__ import annotations
@@ -16,13 +21,15 @@ import math
 import numpy as np
 from netgen import occ
 
-from .common import (PLANE, SOLID3D, MeshBundle, cells_for, extrude, generate,
+from .common import (AXISYMMETRIC, PLANE, SOLID3D, MeshBundle, cells_for, extrude, generate,
                      require_curve_order, require_int, require_positive, tensor_mesh_2d,
                      to_ngsolve)
 
 GEL = "gel"
 LEFT, RIGHT, BOTTOM, TOP, FRONT, BACK = "left", "right", "bottom", "top", "front", "back"
 OUTER = "outer"
+SURFACE_NAME, AXIS, EQUATOR = "surface", "axis", "equator"
+BALL_PLANES = ("xsym", "ysym", "zsym")
 RECTANGLE_BOUNDARIES = (LEFT, RIGHT, BOTTOM, TOP)
 BLOCK_BOUNDARIES = (LEFT, RIGHT, FRONT, BACK, BOTTOM, TOP)
 
@@ -147,3 +154,42 @@ def disk(*, radius: float, maxh: float, center: tuple[float, float] = (0.0, 0.0)
                       params=dict(radius=radius, maxh=maxh, center=(cx, cy),
                                   curve_order=curve_order, quad=quad),
                       boundaries=(OUTER,), regions=(GEL,))
+
+
+
+
+def ball_octant(*, radius: float = 1.0, maxh: float, curve_order: int = 2) -> MeshBundle:
+    """The octant ``x, y, z >= 0`` of a ball of ``radius`` (3D, tetrahedra curved to
+    ``curve_order``): with rollers on the three symmetry planes it stands for the whole ball."""
+    radius = require_positive("radius", radius)
+    maxh = require_positive("maxh", maxh)
+    curve_order = require_curve_order(curve_order)
+    shape = occ.Sphere(occ.Pnt(0, 0, 0), radius) * occ.Box(occ.Pnt(0, 0, 0), occ.Pnt(radius, radius, radius))
+    shape.solids.name = GEL
+    for name, axis in zip(BALL_PLANES, (occ.X, occ.Y, occ.Z)):
+        shape.faces.Min(axis).name = name
+    shape.faces.Max(occ.X + occ.Y + occ.Z).name = SURFACE_NAME
+    geometry = occ.OCCGeometry(shape)
+    volume = math.pi * radius**3 / 6
+    return MeshBundle(mesh=to_ngsolve(generate(geometry, maxh=maxh), curve_order), geometry=geometry,
+                      model=SOLID3D, exact_measure=volume, exact_volume=volume,
+                      params=dict(radius=radius, maxh=maxh, curve_order=curve_order),
+                      boundaries=BALL_PLANES + (SURFACE_NAME,), regions=(GEL,))
+
+
+def ball_section(*, radius: float = 1.0, maxh: float, curve_order: int = 2) -> MeshBundle:
+    """The r-z section of the upper half of a ball of ``radius`` (axisymmetric quarter disk,
+    curved to ``curve_order``): with ``"equator"`` on rollers it stands for the whole ball."""
+    radius = require_positive("radius", radius)
+    maxh = require_positive("maxh", maxh)
+    curve_order = require_curve_order(curve_order)
+    # drawn, not cut from a disk: the cut puts the axis end of the arc at r = -3e-16
+    face = (occ.WorkPlane().Line(radius, name=EQUATOR).Rotate(90).Arc(radius, 90, name=SURFACE_NAME)
+            .Rotate(90).LineTo(0, 0, name=AXIS).Face())
+    face.name = GEL
+    geometry = occ.OCCGeometry(face, dim=2)
+    return MeshBundle(mesh=to_ngsolve(generate(geometry, maxh=maxh), curve_order), geometry=geometry,
+                      model=AXISYMMETRIC, exact_measure=math.pi * radius**2 / 4,
+                      exact_volume=2 * math.pi * radius**3 / 3,
+                      params=dict(radius=radius, maxh=maxh, curve_order=curve_order),
+                      boundaries=(AXIS, EQUATOR, SURFACE_NAME), regions=(GEL,))

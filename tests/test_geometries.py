@@ -15,6 +15,8 @@ from geometries.common import aspect_bound, aspect_ratios
 # --- builders with curved geometry: (name, factory taking curve_order) --------------
 CURVED = {
     "disk": lambda k: g.disk(radius=1.0, maxh=0.4, curve_order=k),
+    "ball_octant": lambda k: g.ball_octant(maxh=0.25, curve_order=k),
+    "ball_section": lambda k: g.ball_section(radius=2.0, maxh=0.3, curve_order=k),
     "cap_solid": lambda k: g.cap_solid(H=0.3, t=0.02, maxh=0.15, layers=1, curve_order=k),
     "cap_section": lambda k: g.cap_section(H=0.3, t=0.02, maxh=0.15, curve_order=k),
     "cap_midsurface": lambda k: g.cap_midsurface(H=0.3, t=0.02, maxh=0.15, curve_order=k),
@@ -88,7 +90,7 @@ def test_straight_measure_exact(bundles, name):
         assert measure(b, region) == pytest.approx(exact, rel=1e-12)
 
 
-@pytest.mark.parametrize("name", ["cap_section", "plate_section", "tube_section"])
+@pytest.mark.parametrize("name", ["cap_section", "plate_section", "tube_section", "ball_section"])
 def test_axisymmetric_volume(bundles, name):
     b = bundles[name]
     assert b.model == g.AXISYMMETRIC
@@ -361,6 +363,8 @@ BAD = [
     (g.rectangle, dict(width=1.0, height=1.0, maxh=0.1, structured=True, nx=0), "nx"),
     (g.block, dict(lx=1.0, ly=1.0, lz=1.0, maxh=-1.0), "maxh"),
     (g.disk, dict(radius=1.0, maxh=float("nan")), "maxh"),
+    (g.ball_octant, dict(radius=-1.0, maxh=0.3), "radius"),
+    (g.ball_section, dict(maxh=0.0), "maxh"),
     (g.radial_grading, dict(n0=1e-3, nR=1e-2, p=0.0, R=1.0), "p"),
     (g.axial_grading, dict(n0=1e-3, nL=1e-2, p=1.0, L=0.0), "L"),
 ]

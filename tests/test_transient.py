@@ -298,3 +298,26 @@ def test_transient_layer_script_quick(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["max_relative_balance_error"] < 1e-8
     assert summary["uptake"] == pytest.approx(summary["uptake_equilibrium"], rel=0.1)  # t_end = 10 H^2 / Dc
+
+
+def test_ball_3d_agrees_with_axisymmetric_within_discretisation_error(tmp_path):
+    # the nonlinear check: a dry-ish ball (J0 = 1.11) swelling 1.6x, 3D octant against the
+    # axisymmetric section on meshes of the same size, both against a fine spherical line
+    import json
+
+    import transient_sphere
+
+    transient_sphere.main(["--out", str(tmp_path), "--quick"])
+    for name in ("params.json", "summary.json", "errors.csv", "histories.csv", "ball_3d.pvd", "transient_sphere.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    rows = json.loads((tmp_path / "summary.json").read_text())["rows"]
+    by = {(r["model"], r["h"]): r for r in rows}
+    sizes = sorted({r["h"] for r in rows}, reverse=True)
+    for r in rows:
+        assert r["cutbacks"] == 0 and r["max_balance_error"] < 1e-8, r
+    for model in ("axisymmetric", "3d"):
+        errors = [by[(model, h)]["error"] for h in sizes]
+        assert all(fine < 0.8 * coarse for coarse, fine in zip(errors, errors[1:])), (model, errors)
+    for h in sizes:
+        three_d, axi = by[("3d", h)], by[("axisymmetric", h)]
+        assert three_d["difference_3d_axisymmetric"] < 0.5 * min(three_d["error"], axi["error"]), (h, three_d, axi)
