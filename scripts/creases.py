@@ -44,6 +44,7 @@ from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain 
 from ngsgel.contact import crossing_pairs, plane_contact, surface_line  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
+from ngsgel.surface import surface_tension as surface_tension_density  # noqa: E402
 from ngsgel.stability import free_matrix, negative_count  # noqa: E402
 from ngsgel.stepping import RampError, ramp  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
@@ -51,6 +52,10 @@ from ngsgel.transient import TransientError, TransientProblem, march, time_ramp 
 
 BIOT_RATIO = 3.383  # Biot (1963): incompressible neo-Hookean half-space, plane strain, lam2/lam1 at wrinkling
 CREASE_RATIO = 2.4  # Hong, Zhao & Suo (2009): energetic crease threshold, lam2/lam1 (strain 0.35)
+# Default surface energy of the gel-solvent interface, gamma / (G H) (the elastocapillary length
+# gamma/G over the layer thickness); see docs/creases.md for physical numbers. 0: no surface energy.
+SURFACE_TENSION = 0.02
+KT_OVER_V = 1.38e-23 * 298 / 3.0e-29  # Pa: the stress unit for water at 25 C (v = 3e-29 m^3)
 
 
 @dataclass
@@ -69,10 +74,18 @@ class Setup:
     ramp: float = 1e-5  # duration of the immersion ramp
     threads: bool = False  # NGSolve TaskManager (on a shared 2-core machine it was slower)
     viscosity: float = 1e-3  # pseudo-viscous stabiliser eta / G (time units H^2/D, per unit area)
+    surface_tension: float = SURFACE_TENSION  # gamma / (G H): elastocapillary length over thickness
+
+    @property
+    def gamma(self) -> float:
+        """Surface energy of the top (gel-solvent interface) in the code's units ``kT H / v``."""
+        return self.surface_tension * self.gel.shear_modulus(self.lam0) * self.thickness
 
     def check(self) -> None:
-        if not (isinstance(self.viscosity, (int, float)) and math.isfinite(self.viscosity) and self.viscosity >= 0):
-            raise ValueError(f"viscosity must be a finite number >= 0, got {self.viscosity!r}")
+        for name in ("viscosity", "surface_tension"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         for name in ("Nv", "thickness", "width", "top_h", "maxh", "penalty", "ramp"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -104,6 +117,11 @@ class Setup:
         a = self.amplitude * self.width if imperfect else 0.0
         return layer_plane(width=self.width, thickness=self.thickness, maxh=self.maxh, top_maxh=self.top_h,
                            amplitude=-a, wavelength=2 * self.width if a else None).mesh
+
+    def add_surface_tension(self, prob) -> None:
+        """Surface energy ``gamma |F' t|`` on the top (none when ``surface_tension`` is 0)."""
+        if self.surface_tension > 0:
+            prob.add_surface_energy("top", surface_tension_density(self.gamma))
 
     def add_contact(self, prob) -> None:
         k = self.penalty * self.gel.shear_modulus(self.lam0) / self.top_h
@@ -195,6 +213,7 @@ def build_transient(setup: Setup) -> TransientProblem:
     prob.fix("bottom")
     prob.fix("left|right", "x")
     setup.add_contact(prob)
+    setup.add_surface_tension(prob)
     prob.immerse("top", time_ramp(prob.t, start=setup.mu0, end=0.0, duration=setup.ramp))
     return prob
 
@@ -371,6 +390,7 @@ def build_equilibrium(setup: Setup, *, imperfect: bool, contact: bool) -> Equili
     prob.fix("left|right", "x")
     if contact:
         setup.add_contact(prob)
+    setup.add_surface_tension(prob)
     return prob
 
 
@@ -563,6 +583,10 @@ def main(argv=None) -> dict:
     parser.add_argument("--penalty", type=float, default=Setup.penalty)
     parser.add_argument("--ramp", type=float, default=Setup.ramp)
     parser.add_argument("--viscosity", type=float, default=Setup.viscosity, help="stabiliser eta/G")
+    parser.add_argument("--surface-tension", type=float, default=Setup.surface_tension,
+                        help="surface energy of the top, gamma/(G H) (elastocapillary length over thickness; "
+                        f"default {SURFACE_TENSION}: gamma = 0.07 N/m on this gel, G = 1.3e5 Pa, at H = 27 um, "
+                        "or on a gel with G = 3.5e3 Pa at H = 1 mm; 0: none, the sharp-interface model)")
     parser.add_argument("--t-end", type=float, default=0.2)
     parser.add_argument("--dt-max", type=float, default=None)
     args = parser.parse_args(argv)
@@ -570,7 +594,8 @@ def main(argv=None) -> dict:
     top_h = args.top_h if args.top_h is not None else (0.02 if quick else Setup.top_h)
     setup = Setup(Nv=args.Nv, chi=args.chi, mu0=args.mu0, thickness=args.thickness, width=args.width,
                   amplitude=args.amplitude, top_h=top_h, maxh=max(args.maxh, top_h) if quick else args.maxh,
-                  penalty=args.penalty, ramp=args.ramp, viscosity=args.viscosity)
+                  penalty=args.penalty, ramp=args.ramp, viscosity=args.viscosity,
+                  surface_tension=args.surface_tension)
     setup.check()
     if args.equilibrium:
         meshes = [0.04, 0.02] if quick else [0.02, 0.01, 0.005, 0.0025]  # crease: the middle two

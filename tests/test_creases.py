@@ -14,10 +14,14 @@ import creases  # noqa: E402
 from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp  # noqa: E402
 from ngsgel.contact import plane_contact, self_intersections, surface_line  # noqa: E402
+from ngsgel.surface import surface_tension  # noqa: E402
+from netgen import occ  # noqa: E402
+from scipy.optimize import brentq  # noqa: E402
 
 
 def coarse(**change):
-    return creases.Setup(**{"top_h": 0.02, "maxh": 0.05, **change})
+    """Coarse cell; without surface energy unless asked (the sharp-interface model)."""
+    return creases.Setup(**{"top_h": 0.02, "maxh": 0.05, "surface_tension": 0.0, **change})
 
 
 def test_homogeneous_layer_matches_constrained_closed_form():
@@ -43,6 +47,59 @@ def test_linear_threshold_converges_between_crease_and_biot():
     assert a["residual_homogeneous"] < 1e-12 and b["residual_homogeneous"] < 1e-12
     assert abs(a["ratio"] - b["ratio"]) / b["ratio"] < 0.01
     assert creases.CREASE_RATIO < b["ratio"] < creases.BIOT_RATIO
+
+
+def _quarter_disk(radius: float, maxh: float) -> ngs.Mesh:
+    face = occ.WorkPlane().Circle(0, 0, radius).Face() * occ.WorkPlane().Rectangle(2 * radius, 2 * radius).Face()
+    face.name = "gel"
+    face.edges.name = "outer"
+    face.edges.Min(occ.X).name = "xsym"
+    face.edges.Min(occ.Y).name = "ysym"
+    mesh = ngs.Mesh(occ.OCCGeometry(face, dim=2).GenerateMesh(maxh=maxh))
+    mesh.Curve(2)  # isoparametric P2: homogeneous states are in the space
+    return mesh
+
+
+def test_surface_tension_gives_the_laplace_pressure():
+    """A plane-strain gel disk (radius R, quarter with mirror sides) with surface energy gamma
+    on its rim, at the reference mu0: the surface energy compresses it homogeneously; the
+    Young-Laplace law gives the pressure gamma / (s R) and the closed-form in-plane stretch s from
+    sigma_rr(s) = -gamma / (s R) (Flory-Rehner stress, out-of-plane stretch held). Measured: the
+    mean pressure and the area ratio agree to 1.5e-5 at maxh = R/4 (7e-7 at R/8: geometry error
+    of the P2 rim)."""
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    mu0, radius = -0.1, 1.0
+    lam0 = gel.lam_free(mu0)
+    gamma = 0.5 * gel.shear_modulus(lam0) * radius
+    mesh = _quarter_disk(radius, 0.25)
+    prob = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=lam0, mu=mu0, quadrature_order=6)
+    prob.fix("xsym", "x")
+    prob.fix("ysym", "y")
+    prob.add_surface_energy("outer", surface_tension(gamma))
+    prob.solve()
+    s = brentq(lambda s: gel.mu_traction_free(lam0 * s, lam0**3 * s * s) - mu0 + gamma / (s * radius), 0.9, 1.0,
+               xtol=1e-15)
+    area = prob.integrate(ngs.CF(1.0))
+    sigma = prob.stress()
+    pressure = -prob.integrate(0.5 * (sigma[0, 0] + sigma[1, 1])) / area
+    area_ratio = prob.integrate(ngs.Det(prob.deformation_gradient(prob.displacement))) / area
+    assert pressure == pytest.approx(gamma / (s * radius), rel=1e-4)
+    assert (area_ratio - 1) == pytest.approx(s * s - 1, rel=1e-4)
+    assert s * s < 1 - 1e-4  # the effect measured is not round-off
+
+
+def test_surface_tension_keeps_flat_state_and_raises_linear_threshold():
+    """A flat surface stays flat: the closed-form laterally constrained state is still an exact
+    equilibrium with surface energy (no curvature, no normal traction). Surface energy penalises
+    short wrinkles, so the linear threshold rises with gamma / (G H): measured at h = 0.01 3.126,
+    3.252, 3.372 for 0, 0.01, 0.02 (mesh change to h = 0.005 < 0.1 %)."""
+    ratios = []
+    for st in (0.0, 0.01, 0.02):
+        res = creases.linear_threshold(coarse(top_h=0.01, surface_tension=st))
+        assert res["residual_homogeneous"] < 1e-12
+        ratios.append(res["ratio"])
+    assert ratios[0] < ratios[1] - 0.05 < ratios[2] - 0.1
+    assert ratios[2] == pytest.approx(3.372, rel=2e-3)
 
 
 def _forced_fold(with_contact: bool):
@@ -83,6 +140,10 @@ def test_bad_input_raises_before_work():
         creases.Setup(mu0=0.1).check()
     with pytest.raises(ValueError, match="top_h"):
         creases.Setup(top_h=0.1).check()
+    with pytest.raises(ValueError, match="surface_tension"):
+        creases.Setup(surface_tension=-0.01).check()
+    with pytest.raises(ValueError, match="gamma"):
+        surface_tension(float("nan"))
     with pytest.raises(ValueError, match="penalty"):
         plane_contact(component=0, position=0.0, side=1, penalty=-1.0)
 
