@@ -9,6 +9,7 @@ part is ``g - x``), so a load step that moves a boundary never creates an invert
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -39,6 +40,9 @@ class NewtonResult:
     residuals: list[float] = field(default_factory=list)
     line_search_cuts: int = 0
     message: str = ""
+    chord_steps: int = 0  # steps with a reused factorisation (not counted in ``iterations``)
+    iteration_times: list[float] = field(default_factory=list)  # wall time of each full iteration, s
+    chord_times: list[float] = field(default_factory=list)  # wall time of each kept chord step, s
 
 
 class NewtonError(RuntimeError):
@@ -59,6 +63,11 @@ class LinearSolver:
         self._matrix = None
         self._inv = None
 
+    @property
+    def current(self):
+        """The last factorisation (None before the first ``factor``)."""
+        return self._inv
+
     def factor(self, matrix: ngs.BaseMatrix):
         if self._inv is not None and matrix is self._matrix:
             self._inv.Update()
@@ -70,7 +79,8 @@ class LinearSolver:
 
 def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
            xtol: float = 1e-13, maxit: int = 30, min_step: float = 2.0**-12,
-           raise_on_failure: bool = True) -> NewtonResult:
+           raise_on_failure: bool = True, reuse_factorisation: bool = False,
+           chord_rate: float = 0.25) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
 
     Converged when the free residual's norm falls below ``max(atol, rtol * r_max)`` (``r_max``
@@ -79,6 +89,16 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     Every trial point must be admissible with a finite residual; while the prescribed values are
     met the step is also cut until the residual norm decreases (Armijo). On failure the state is
     restored and ``NewtonError`` raised (or the result returned with ``converged=False``).
+
+    With ``reuse_factorisation`` an iteration first tries a chord step with the solver's last
+    factorisation (of an earlier tangent, possibly from an earlier solve), which costs a solve and
+    a residual instead of an assembly and a factorisation; the step is kept only if it is
+    admissible and cuts the free residual norm by at least ``chord_rate``, otherwise the iteration
+    is a full Newton one (assembly, factorisation, line search). Only a full step can meet
+    ``xtol``. Tried while the prescribed values are met, and not again after a rejected chord
+    step until the next factorisation. ``iterations`` (and ``maxit``) count the full Newton
+    iterations, ``chord_steps`` the kept chord steps; their number is bounded since each cuts the
+    residual by ``chord_rate``.
     """
     x = system.state
     free = system.free_mask
@@ -110,23 +130,48 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     rnorm = free_norm(r)
     r_max = rnorm
     result.residuals.append(rnorm)
+    chord_ok = reuse_factorisation and solver.current is not None
+    clock = time.perf_counter()  # a rejected chord step is charged to the full iteration after it
     for it in range(maxit + 1):
-        if not math.isfinite(rnorm):
-            return fail(f"residual is not finite at iteration {it}")
-        met = not mismatch.any()
-        if met and rnorm <= max(atol, rtol * r_max):
-            result.converged = True
-            result.iterations = it
-            return result
+        while True:  # convergence test, then chord steps while they pay
+            if not math.isfinite(rnorm):
+                return fail(f"residual is not finite at iteration {it}")
+            met = not mismatch.any()
+            if met and rnorm <= max(atol, rtol * r_max):
+                result.converged = True
+                return result
+            if not (chord_ok and met):
+                break
+            dx.data = solver.current * r
+            trial.data = x - dx
+            rn_trial = math.nan
+            if system.admissible(trial):
+                system.residual(trial, r_trial)
+                rn_trial = free_norm(r_trial)
+            if not (math.isfinite(rn_trial) and rn_trial <= chord_rate * rnorm):
+                chord_ok = False  # until the next factorisation
+                break
+            x.data = trial
+            r.data = r_trial
+            rnorm = rn_trial
+            result.residuals.append(rnorm)
+            result.chord_steps += 1
+            now = time.perf_counter()
+            result.chord_times.append(now - clock)
+            clock = now
         if it == maxit:
             break
         K = system.tangent(x)
         inv = solver.factor(K)
+        chord_ok = reuse_factorisation
         # Constrained part of the step: reach the prescribed values; free part: linearised
         # equilibrium including the coupling to that constrained motion.
         dx.FV().NumPy()[:] = mismatch
-        trial.data = K * dx
-        trial.data += r
+        if met:  # no constrained motion: skip the product with K
+            trial.data = r
+        else:
+            trial.data = K * dx
+            trial.data += r
         dx.data -= inv * trial
         step_max = float(np.max(np.abs(dx.FV().NumPy()), initial=0.0))
         alpha = 1.0
@@ -151,6 +196,9 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         r_max = max(r_max, rnorm)
         result.residuals.append(rnorm)
         result.iterations = it + 1
+        now = time.perf_counter()
+        result.iteration_times.append(now - clock)
+        clock = now
         if alpha == 1.0 and step_max <= xtol and not mismatch.any():
             result.converged = True
             return result

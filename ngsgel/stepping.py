@@ -46,8 +46,13 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
     converged states (a secant predictor), dropped if not admissible. The tangent predictor
     saves many iterations when a load applied to the unrelaxed state makes its tangent far from
     the equilibrium one (a change of ``mu`` acts as a pressure of order ``G`` on a nearly
-    incompressible gel); it is used only if admissible with a residual below the start's, since
-    a far linear prediction can land on a spurious branch (e.g. the body turned over).
+    incompressible gel); it is used only if admissible and better than the start, since a far
+    linear prediction can land on a spurious branch (e.g. the body turned over). Better: a
+    smaller free residual, or (for problems with an ``energy()``) a lower energy at the new
+    load. The energy test matters on a buckled branch with stiff films: the predictor moves
+    the film transversally, its membrane strain is wrong at second order and its residual is
+    large although it lies much closer to the solution than the start (gears: first step on the
+    buckled branch 4 Newton iterations from the predictor against 40+ from the start).
 
     A failed step is undone and halved; a step that converged in at most ``easy_iterations`` lets the next one grow by ``grow``. ``on_step`` is
     called after every converged step (recording, output); if it returns True the ramp stops
@@ -76,16 +81,17 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
             return result
         h = min(step, max_step, abs(target - value))
         new = target if abs(target - value) <= h * (1 + 1e-12) else value + direction * h
-        if previous is None and tangent_start:
-            if not _better_start(problem, tangent_predictor(problem, parameter, new), state):
-                problem.restore_state(state)
-        elif previous is None:
-            parameter.Set(new)
-        else:
-            parameter.Set(new)
-            problem.restore_state(state + (new - value) / (value - previous[0]) * (state - previous[1]))
-            if not problem.admissible(problem.state):
-                problem.restore_state(state)
+        with ngs.TaskManager():  # threads the predictor's assembly and factorisation (no-op if active)
+            if previous is None and tangent_start:
+                if not _better_start(problem, tangent_predictor(problem, parameter, new), state):
+                    problem.restore_state(state)
+            elif previous is None:
+                parameter.Set(new)
+            else:
+                parameter.Set(new)
+                problem.restore_state(state + (new - value) / (value - previous[0]) * (state - previous[1]))
+                if not problem.admissible(problem.state):
+                    problem.restore_state(state)
         try:
             newton_result = problem.solve(**(newton_options or {}))
         except NewtonError as err:
@@ -115,11 +121,18 @@ def _free_residual_norm(problem) -> float:
 
 
 def _better_start(problem, guess: np.ndarray, start: np.ndarray) -> bool:
-    """Put ``guess`` in the problem; True if admissible with a smaller free residual than ``start``."""
+    """Put ``guess`` in the problem; True if admissible with a smaller free residual than
+    ``start`` or, for problems with an ``energy()``, a lower energy (both at the current load)."""
+    energy = getattr(problem, "energy", None)
     problem.restore_state(start)
     r_start = _free_residual_norm(problem)
+    e_start = energy() if energy is not None else None
     problem.restore_state(guess)
-    return bool(problem.admissible(problem.state) and _free_residual_norm(problem) < r_start)
+    if not problem.admissible(problem.state):
+        return False
+    if _free_residual_norm(problem) < r_start:
+        return True
+    return bool(energy is not None and energy() < e_start)
 
 
 def tangent_predictor(problem, parameter: ngs.Parameter, new: float) -> np.ndarray:
@@ -128,8 +141,11 @@ def tangent_predictor(problem, parameter: ngs.Parameter, new: float) -> np.ndarr
     prescribed values reached exactly. Leaves ``parameter`` at ``new`` and the state unchanged."""
     x = problem.state
     K = problem.tangent(x)
-    freedofs = ngs.BitArray(problem.free_mask.tolist())
-    inv = LinearSolver(freedofs, inverse=getattr(problem, "inverse", "umfpack")).factor(K)
+    solver = getattr(problem, "_solver", None)  # the problem's own: symbolic factorisation reused
+    if not isinstance(solver, LinearSolver):
+        freedofs = ngs.BitArray(problem.free_mask.tolist())
+        solver = LinearSolver(freedofs, inverse=getattr(problem, "inverse", "umfpack"))
+    inv = solver.factor(K)
     parameter.Set(new)
     r, step, target = x.CreateVector(), x.CreateVector(), x.CreateVector()
     problem.residual(x, r)

@@ -17,6 +17,7 @@ import os
 import resource
 import statistics
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import ngsolve as ngs
@@ -72,30 +73,93 @@ def iteration_split(prob: EquilibriumProblem) -> dict[str, float]:
             "admissibility": t_adm}
 
 
-def run_baseline(case: dict) -> tuple[float, int, np.ndarray, float | None]:
-    """Wall time, Newton iterations, end state and the mu at which it failed (None: completed)."""
+@dataclass
+class Run:
+    """One ramp: wall time, end time of each converged step (from the start), Newton iteration
+    times (full iterations; chord steps apart), the mu where it failed (None: completed)."""
+
+    wall: float
+    step_ends: list[float]
+    iteration_times: list[float]
+    iterations_per_step: list[int]
+    state: np.ndarray
+    failed_at: float | None = None
+    chord_steps: int = 0
+
+    @property
+    def iterations(self) -> int:
+        return sum(self.iterations_per_step)
+
+
+def mu_values() -> np.ndarray:
+    return np.linspace(MU0, MU1, STEPS + 1)[1:]
+
+
+def run_baseline(case: dict) -> Run:
+    """NGSolve's NewtonSolver with its energy line search, from the previous solution at each step."""
     prob = make_problem(case)
     a, gfu = prob.form, prob.displacement  # the same energy form, solved by NGSolve's Newton
-    iterations = 0
+    stamps: list[float] = []
+    run = Run(0.0, [], [], [], prob.save_state())
     start = time.perf_counter()
     solver = NewtonSolver(a, gfu, freedofs=prob.space.FreeDofs(), inverse="sparsecholesky")
     with ngs.TaskManager():
-        for mu in np.linspace(MU0, MU1, STEPS + 1)[1:]:
+        for mu in mu_values():
             prob.mu.Set(mu)
+            stamps.clear()
+            stamps.append(time.perf_counter())
             # without its energy line search NGSolve's Newton steps into J <= 1 (NaN) in this ramp
-            converged, its = solver.Solve(maxit=50, maxerr=1e-11, linesearch=True)
-            iterations += its  # failed iterations cost time too
+            converged, its = solver.Solve(maxit=50, maxerr=1e-11, linesearch=True,
+                                          callback=lambda it, err: stamps.append(time.perf_counter()))
             if converged < 0 or not np.all(np.isfinite(gfu.vec.FV().NumPy())):
-                return time.perf_counter() - start, iterations, prob.save_state(), float(mu)
-    return time.perf_counter() - start, iterations, prob.save_state(), None
+                run.failed_at = float(mu)
+                break
+            run.iteration_times += list(np.diff(stamps))  # iterations of converged steps only
+            run.iterations_per_step.append(its)
+            run.step_ends.append(time.perf_counter() - start)
+    run.wall = time.perf_counter() - start
+    run.state = prob.save_state()
+    return run
 
 
-def run_ngsgel(case: dict) -> tuple[float, int, np.ndarray]:
+def run_ngsgel(case: dict, **newton_options) -> Run:
     prob = make_problem(case)
+    run = Run(0.0, [], [], [], prob.save_state())
     start = time.perf_counter()
-    result = ramp(prob, prob.mu, MU1, step=(MU1 - MU0) / STEPS, max_step=(MU1 - MU0) / STEPS, grow=1.0)
-    wall = time.perf_counter() - start
-    return wall, sum(n.iterations for n in result.newton), prob.save_state()
+
+    def on_step(value, result):
+        run.step_ends.append(time.perf_counter() - start)
+        run.iteration_times += result.iteration_times
+        run.iterations_per_step.append(result.iterations)
+        run.chord_steps += result.chord_steps
+
+    step = (MU1 - MU0) / STEPS
+    ramp(prob, prob.mu, MU1, step=step, max_step=step, grow=1.0, on_step=on_step, newton_options=newton_options)
+    run.wall = time.perf_counter() - start
+    run.state = prob.save_state()
+    return run
+
+
+def compare(base: Run, ours: Run) -> dict[str, float]:
+    """Ratios ngsgel / baseline of one repetition.
+
+    ``ramp_ratio``: whole ramp (NaN if the baseline failed). ``survived_ratio``: time to the last
+    step the baseline converged, same steps (equals ``ramp_ratio`` if it completed).
+    ``ramp_bound``: ngsgel's whole ramp over the baseline's time up to its failure, an upper
+    bound of the ratio a completed baseline could give. ``iteration_ratio``: the most expensive
+    ngsgel Newton iteration over the median baseline iteration (the baseline's first, which
+    includes the symbolic factorisation, left out; ngsgel's is in its tangent predictor and
+    counted in the ramp); ``iteration_ratio_median``: median over median."""
+    k = len(base.step_ends)
+    t_base = statistics.median(base.iteration_times[1:]) if len(base.iteration_times) > 1 else float("nan")
+    return {"ramp_ratio": ours.wall / base.wall if base.failed_at is None else float("nan"),
+            "survived_ratio": ours.step_ends[k - 1] / base.step_ends[k - 1] if k else float("nan"),
+            "ramp_bound": ours.wall / base.wall,
+            "iteration_ratio": max(ours.iteration_times) / t_base,
+            "iteration_ratio_median": statistics.median(ours.iteration_times) / t_base}
+
+
+VARIANTS = {"ngsgel": {}, "ngsgel-reuse": {"reuse_factorisation": True}}
 
 
 def main(argv=None) -> None:
@@ -103,40 +167,56 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default="results/bench_newton")
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--cases", default=None, help="comma-separated subset of the cases")
     args = parser.parse_args(argv)
     quick = args.quick or bool(os.environ.get("CI"))
+    chosen = cases(quick)
+    if args.cases:
+        chosen = {k: chosen[k] for k in args.cases.split(",")}
     run_dir = RunDirectory(args.out, params={"mu0": MU0, "mu1": MU1, "steps": STEPS, "repeat": args.repeat,
-                                             "quick": quick, "threads": ngs.TaskManager and os.cpu_count()})
+                                             "quick": quick, "threads": os.cpu_count()})
+    med = statistics.median
     with History(run_dir.file("bench.csv")) as history:
-        for name, case in cases(quick).items():
+        for name, case in chosen.items():
             prob = make_problem(case)
             split = iteration_split(prob)
-            base, ours = [], []
-            for _ in range(args.repeat):
-                base.append(run_baseline(case))
-                ours.append(run_ngsgel(case))
-            t_base = statistics.median(b[0] for b in base)
-            t_ours = statistics.median(o[0] for o in ours)
-            it_base, it_ours = base[0][1], ours[0][1]
-            failed_at = base[0][3]
-            diff = float(np.max(np.abs(base[0][2] - ours[0][2]))) if failed_at is None else float("nan")
-            row = {"case": name, "ndof": prob.space.ndof, **{f"t_{k}": v for k, v in split.items()},
-                   "baseline_ramp_s": t_base, "ngsgel_ramp_s": t_ours, "baseline_failed_at_mu": failed_at,
-                   "ramp_ratio": t_ours / t_base if failed_at is None else float("nan"),
-                   "baseline_iterations": it_base, "ngsgel_iterations": it_ours,
-                   "baseline_s_per_iteration": t_base / max(it_base, 1), "ngsgel_s_per_iteration": t_ours / it_ours,
-                   "iteration_ratio": (t_ours / it_ours) / (t_base / max(it_base, 1)), "max_state_difference": diff,
-                   "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
-            history.append(row)
-            print(f"{name}: {row['ndof']} unknowns; one iteration: assembly {split['assembly']:.3f}s, "
+            print(f"{name}: {prob.space.ndof} unknowns; one iteration: assembly {split['assembly']:.3f}s, "
                   f"factorisation {split['factorisation']:.3f}s, solve {split['solve']:.3f}s, "
-                  f"residual {split['residual']:.3f}s, admissibility {split['admissibility']:.3f}s")
-            if failed_at is not None:
-                print(f"  baseline Newton failed (NaN, J <= 1) at mu = {failed_at:.4g}; ngsgel completed the ramp")
-            outcome = ("ramp ratio n/a (baseline failed); " if failed_at is not None else
-                       f"ramp ratio {row['ramp_ratio']:.2f}, end states differ by {diff:.1e}; ")
-            print(f"  {STEPS}-step ramp: baseline {t_base:.2f}s ({it_base} its), ngsgel {t_ours:.2f}s "
-                  f"({it_ours} its); {outcome}time per iteration ratio {row['iteration_ratio']:.2f}")
+                  f"residual {split['residual']:.3f}s, admissibility {split['admissibility']:.3f}s", flush=True)
+            runs = {"baseline": []} | {v: [] for v in VARIANTS}
+            for _ in range(args.repeat):  # interleaved, so that a change of machine load hits all alike
+                runs["baseline"].append(run_baseline(case))
+                for variant, options in VARIANTS.items():
+                    runs[variant].append(run_ngsgel(case, **options))
+            base = runs["baseline"]
+            failed = [b.failed_at for b in base if b.failed_at is not None]
+            print(f"  baseline: {med(b.wall for b in base):.2f}s, iterations per step "
+                  f"{base[0].iterations_per_step}, median iteration {med(base[0].iteration_times[1:]):.3f}s"
+                  + (f"; FAILED (NaN, J <= 1) at mu = {failed[0]:.4g} in {len(failed)}/{len(base)} runs, "
+                     f"after {len(base[0].step_ends)} of {STEPS} steps" if failed else ""))
+            for variant in VARIANTS:
+                ours = runs[variant]
+                ratios = [compare(b, o) for b, o in zip(base, ours)]
+                r = {key: med(x[key] for x in ratios) for key in ratios[0]}
+                diff = float(np.max(np.abs(base[0].state - ours[0].state))) if base[0].failed_at is None else float("nan")
+                row = {"case": name, "variant": variant, "ndof": prob.space.ndof, **{f"t_{k}": v for k, v in split.items()},
+                       "baseline_ramp_s": med(b.wall for b in base), "ngsgel_ramp_s": med(o.wall for o in ours),
+                       "baseline_failed_at_mu": failed[0] if failed else None, "baseline_steps": len(base[0].step_ends),
+                       "baseline_iterations": base[0].iterations, "ngsgel_iterations": ours[0].iterations,
+                       "ngsgel_chord_steps": ours[0].chord_steps,
+                       "baseline_s_per_iteration": med(base[0].iteration_times[1:]),
+                       "ngsgel_s_per_iteration": med(ours[0].iteration_times),
+                       **r, "max_state_difference": diff,
+                       "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+                history.append(row)
+                k = len(base[0].step_ends)
+                ramp_text = (f"ramp ratio {r['ramp_ratio']:.2f}, end states differ by {diff:.1e}" if not failed else
+                             f"ramp ratio n/a (baseline failed); on the {k} steps it survived {r['survived_ratio']:.2f}; "
+                             f"whole ramp / baseline up to its failure {r['ramp_bound']:.2f}")
+                print(f"  {variant}: {row['ngsgel_ramp_s']:.2f}s, iterations per step {ours[0].iterations_per_step}"
+                      + (f" (+{ours[0].chord_steps} chord steps)" if ours[0].chord_steps else "")
+                      + f", median iteration {row['ngsgel_s_per_iteration']:.3f}s; {ramp_text}; per-iteration cost "
+                      f"ratio max {r['iteration_ratio']:.2f} (median {r['iteration_ratio_median']:.2f})", flush=True)
 
 
 if __name__ == "__main__":
