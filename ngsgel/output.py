@@ -3,13 +3,17 @@
 ``RunDirectory`` makes the folder and writes the run's parameters; ``History`` appends one CSV row
 per step (and mirrors it as JSON lines) and flushes, so a stopped run keeps what it computed;
 ``VTKSeries`` writes ParaView files of named fields with a ``.pvd`` index over time or load.
+``scene_parser`` gives every scene script the same ``--out``/``--quick`` flags (and the gel's and
+the bath's parameters for swelling scenes); ``quick_run`` adds the CI environment to ``--quick``.
 """
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
 import math
+import os
 import sys
 import time
 from collections.abc import Mapping
@@ -17,7 +21,7 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-__all__ = ["RunDirectory", "History", "VTKSeries", "Progress"]
+__all__ = ["RunDirectory", "History", "VTKSeries", "Progress", "scene_parser", "quick_run"]
 
 
 def _jsonable(value):
@@ -123,3 +127,25 @@ class Progress:
     def __call__(self, message: str) -> None:
         self.stream.write(f"[{self.label} {time.perf_counter() - self.start:7.1f}s] {message}\n")
         self.stream.flush()
+
+
+def scene_parser(doc: str, *, out: str, quick: str, swelling: Mapping[str, float] | None = None
+                 ) -> argparse.ArgumentParser:
+    """Command line of a scene script: ``--out`` (default ``out``), ``--quick`` (``quick`` says
+    what it coarsens) and, given ``swelling`` defaults for ``Nv``, ``chi``, ``mu0``, ``mu_ext``
+    and ``ramp``, the options of a gel immersed in a bath."""
+    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default=out, help="output folder")
+    parser.add_argument("--quick", action="store_true", help=f"{quick} (also set by env CI)")
+    if swelling is not None:
+        helps = {"Nv": "cross-link density N v", "chi": "Flory-Huggins parameter",
+                 "mu0": "initial (dry-ish) chemical potential", "mu_ext": "chemical potential of the bath",
+                 "ramp": "duration of the immersion ramp"}
+        for name, default in swelling.items():
+            parser.add_argument("--" + name.replace("_", "-"), type=float, default=default, help=helps[name])
+    return parser
+
+
+def quick_run(args: argparse.Namespace) -> bool:
+    """``--quick`` given, or running under CI (environment variable ``CI`` set)."""
+    return bool(args.quick or os.environ.get("CI"))

@@ -10,15 +10,13 @@ in-plane stretch follows its own closed form (``lam_plane_strain``).
 
 from __future__ import annotations
 
-import argparse
-import os
 import time
 
 import numpy as np
 from ngsolve.meshes import MakeStructured2DMesh, MakeStructured3DMesh
 
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, PlaneStrain, Solid3D, ramp
-from ngsgel.output import History, Progress, RunDirectory
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
 CHIS = (0.1, 0.5, 0.8, 1.0)
 NV = 1e-3
@@ -106,11 +104,9 @@ def plot(rows: list[dict], path) -> None:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/free_swelling", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="fewer states (also set by env CI)")
+    parser = scene_parser(__doc__, out="results/free_swelling", quick="fewer states")
     args = parser.parse_args(argv)
-    rows = run(args.out, quick=args.quick or bool(os.environ.get("CI")))
+    rows = run(args.out, quick=quick_run(args))
     worst = max(r["rel_error"] for r in rows)
     print(f"{len(rows)} FE states, largest relative error against the closed form {worst:.2e}; "
           f"results in {args.out}")

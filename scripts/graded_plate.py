@@ -1,31 +1,40 @@
 """Free-swelling disk with graded cross-links (thesis ch. 5, MODEL.md scene C): the axisymmetric
-path, its stress profiles and the onset of non-axisymmetric buckling by angular wave number.
+path (flat, or a bowl after an axisymmetric bifurcation), its stress profiles and the onset of
+non-axisymmetric buckling by angular wave number.
 
 The disk ``R = 1``, thickness ``t``, ``Nv(r) = n0 + (nR - n0) (r/R)^p``, ``chi = 0.5``, is
 equilibrated at ``mu0`` (a graded gel has no stress-free uniform reference) and ``mu`` is raised
-towards 0 along the axisymmetric path, made unique by a radial shear ``imperfection E0 t r/R``
-(``E0`` of the soft gel) on the top face — self-equilibrated, it bends without a net force: the
-flat state is mid-plane symmetric, and a plate whose softer centre makes it a bowl would
-otherwise stand at a pitchfork (the thesis seeds imperfections too). The load parameter is the free-swelling stretch ``s`` of
-the softest gel of the grading, ``mu = mu_free_soft(s)`` (a coefficient function of ``s``):
-nearly all the swelling happens close to ``mu = 0``, where equal steps in ``mu`` would be huge
-steps in strain (r-z section). At every converged state the second variation is scanned over
-wave numbers ``k = 0 .. kmax`` (``ngsgel.harmonic``: exact for the 3D body, one 2D eigenproblem per k); the
-first negative eigenvalue is bisected to the critical ``mu_c`` and its ``k_c``.
+towards 0. The load parameter is the free-swelling stretch ``s`` of the softest gel of the
+grading, ``mu = mu_free_soft(s)`` (a coefficient function of ``s``): nearly all the swelling
+happens close to ``mu = 0``, where equal steps in ``mu`` would be huge steps in strain.
 
-Reported per run: ``mu_c``, ``k_c``, the critical swelling strain (defined here as the free-swelling
-mismatch ``lam_free(mu_c; soft) / lam_free(mu_c; stiff) - 1`` between the softest and the stiffest
-gel of the grading), the hoop-stress profile at onset and where it turns compressive, and the
-lowest eigenvalue by k along the path. What this script does not do: follow the non-axisymmetric
-post-buckled path (the thesis's final wave numbers are those of the fully swollen, post-buckled
-plate — a 3D thin solid or shell run from the critical mode).
+The r-z section is meshed symmetrically about the mid-plane (quads), so the flat plate is a
+perfect pitchfork for bending: when a softer centre swells more than its rim it buckles into a
+bowl, and the continuation driver locates that axisymmetric bifurcation (exact negative count of
+the section's tangent), switches onto the bowl branch along the critical mode and follows it (no
+imperfection). ``--imperfection`` adds a self-equilibrated radial shear ``E0 t r/R`` on the top
+face instead, for comparison. At every converged state the second variation is scanned over wave
+numbers ``k = 1 .. kmax`` (``ngsgel.harmonic``: exact for the 3D body, one 2D eigenproblem per k);
+the first negative eigenvalue is bisected to the critical ``mu_c`` and its ``k_c``.
+
+Reported per run: the axisymmetric events (bifurcation into a bowl, ``mu`` there), the deformed
+mid-plane profile at the end and its shape exponent ``q`` (rise ~ r^q: 1 a cone, 2 a lens
+(spherical cap), larger a bowl with a flat bottom), ``mu_c``, ``k_c``, the critical swelling
+strain (the free-swelling mismatch ``lam_free(mu_c; soft) / lam_free(mu_c; stiff) - 1`` between
+the softest and the stiffest gel), the hoop-stress profile at onset and where it turns
+compressive, and the lowest eigenvalue by k along the path. ``--sweep P [P ...]`` runs several
+exponents and draws their end profiles together. What this script does not do: follow the
+non-axisymmetric post-buckled path (the thesis's final wave numbers are those of the fully
+swollen, post-buckled plate: a 3D thin solid or shell run from the critical mode).
 
     python scripts/graded_plate.py --out results/graded_plate [--p 10 --n0 1e-2 --nR 1e-3 --t 0.01] [--quick]
+    python scripts/graded_plate.py --out results/softer_centre --n0 1e-3 --nR 1e-2 --sweep 0.25 0.75 2 10
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 
@@ -35,6 +44,7 @@ import ngsolve as ngs
 from geometries import plate_section
 from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
+from ngsgel.continuation import StabilityOptions
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory
 
@@ -57,7 +67,7 @@ def soft_stretch_load(n0: float, nR: float, mu0: float) -> tuple[ngs.Parameter, 
 
 
 def build(*, n0: float, nR: float, p: float, t: float, maxh: float, layers: int = 2, order: int = 3,
-          mu0: float = -1.0, imperfection: float = 1e-4) -> tuple[EquilibriumProblem, ngs.Parameter]:
+          mu0: float = -1.0, imperfection: float = 0.0) -> tuple[EquilibriumProblem, ngs.Parameter]:
     """The axisymmetric section of the graded disk, equilibrated at ``mu0``, and its load
     parameter (the soft gel's free-swelling stretch, see the module notes). The axial rigid
     translation is removed by one statically determinate constraint (``u_z = 0`` at the centre
@@ -70,13 +80,14 @@ def build(*, n0: float, nR: float, p: float, t: float, maxh: float, layers: int 
         raise ValueError(f"layers must be even (a mid-plane vertex on the axis), got {layers}")
     stiff = FloryRehnerGel(Nv=max(n0, nR), chi=CHI)
     lam0 = stiff.lam_free(mu0)  # also checks mu0
-    mesh = plate_section(R=1.0, t=t, maxh=maxh, layers=layers).mesh
+    mesh = plate_section(R=1.0, t=t, maxh=maxh, layers=layers, quad=True).mesh  # mirror-symmetric in z
     gel = FloryRehnerGel(Nv=radial_grading(n0, nR, p, 1.0, model="axisymmetric"), chi=CHI)
     stretch, mu = soft_stretch_load(n0, nR, mu0)
     prob = EquilibriumProblem(mesh, kinematics=Axisymmetric(), materials=gel, lam0=lam0, mu=mu, order=order)
     prob.fix("axis", "r")
-    soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
-    prob.add_traction("top", (imperfection * soft.youngs_modulus(lam0) * t * ngs.x, 0.0))
+    if imperfection:
+        soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
+        prob.add_traction("top", (imperfection * soft.youngs_modulus(lam0) * t * ngs.x, 0.0))
     space = prob.space
     coords = np.array([v.point for v in mesh.vertices])
     centre = int(np.argmin(np.sum(coords**2, axis=1)))
@@ -100,6 +111,36 @@ def stress_profile(prob: EquilibriumProblem, radii: np.ndarray) -> tuple[np.ndar
     return np.array([sigma[0, 0](q) for q in pts]), np.array([sigma[2, 2](q) for q in pts])
 
 
+def midplane_profile(prob: EquilibriumProblem, radii: np.ndarray) -> np.ndarray:
+    """Deformed mid-plane: reference radius, current radius, height above the centre."""
+    u = prob.displacement
+    z_centre = u(prob.mesh(0.0, 0.0))[1]
+    rows = []
+    for R in radii:
+        ur, uz = u(prob.mesh(float(R), 0.0))
+        rows.append((R, R + ur, uz - z_centre))
+    return np.array(rows)
+
+
+def shape_exponent(profile: np.ndarray) -> float:
+    """``q`` of the best fit ``z = z_rim (r / r_rim)^q`` of a deformed mid-plane (1: cone,
+    2: spherical cap / lens, larger: a bowl, flat at the bottom); NaN for a flat plate."""
+    from scipy.optimize import minimize_scalar
+
+    r, z = profile[:, 1] / profile[-1, 1], profile[:, 2]
+    if abs(z[-1]) < 1e-6 * profile[-1, 1]:
+        return math.nan
+    w = z / z[-1]
+    return float(minimize_scalar(lambda q: np.sum((w - r**q) ** 2), bounds=(0.2, 20), method="bounded").x)
+
+
+def history_rows(path) -> list[dict]:
+    import csv
+
+    with open(path) as f:
+        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
 def compressive_from(radii: np.ndarray, hoop: np.ndarray) -> float | None:
     """Smallest radius beyond which the hoop stress stays compressive (None if never)."""
     negative = hoop < 0
@@ -111,7 +152,7 @@ def compressive_from(radii: np.ndarray, hoop: np.ndarray) -> float | None:
 
 def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
         maxh: float = 0.02, layers: int = 2, order: int = 3, mu0: float = -1.0, kmax: int = 15,
-        imperfection: float = 1e-4, quick: bool = False) -> dict:
+        imperfection: float = 0.0, quick: bool = False) -> dict:
     if quick:
         maxh, order, kmax = max(maxh, 0.05), 2, min(kmax, 8)
     if not (isinstance(kmax, int) and kmax >= 2):
@@ -126,7 +167,7 @@ def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: flo
     stretch_end = FloryRehnerGel(Nv=min(n0, nR), chi=CHI).lam_free(0.0)
     step = (stretch_end - stretch.Get()) / (25 if quick else 60)
     hs = HarmonicStability(prob)
-    ks = list(range(0, kmax + 1))
+    ks = list(range(1, kmax + 1))  # k = 0 is the section's own tangent: the driver checks it
     radii = np.linspace(0.0, 1.0, 101)[1:]
     centre = prob.mesh(0.0, 0.0)
     rim = prob.mesh(1.0, 0.0)
@@ -148,9 +189,19 @@ def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: flo
             last_stable.update(s=point.parameter, state=prob.save_state())
             return False
 
+        # a bowl leaves the flat state at a pitchfork: switch along the critical mode, 0.1 t deep
+        axisymmetric = StabilityOptions(eigenvalues=2, switch=True, amplitude=0.1, length=t, tol=1e-6)
         path = follow_path(prob, stretch, method="natural", step=step, max_step=step, target=stretch_end,
-                           stop=unstable)
-    summary: dict = {"found": False, "rim_rise_end": float(prob.displacement(rim)[1] - prob.displacement(centre)[1])}
+                           stop=unstable, stability=axisymmetric)
+    profile = midplane_profile(prob, radii)
+    np.savetxt(run_dir.file("profile_end.csv"), profile, delimiter=",", header="R,r,z", comments="")
+    summary: dict = {"found": False, "rim_rise_end": float(profile[-1, 2]),
+                     "mu_end": mismatch_strain(stretch.Get(), n0, nR)[0],
+                     "profile_exponent_end": shape_exponent(profile),
+                     "axisymmetric_events": [{"kind": e.kind, "soft_stretch": e.parameter,
+                                              "mu": mismatch_strain(e.parameter, n0, nR)[0]} for e in path.events],
+                     "lowest_nonaxisymmetric_eigenvalue": min(min(row[f"lowest_k{k}"] for k in ks)
+                                                              for row in history_rows(run_dir.file("path.csv")))}
     if path.stop_reason == "criterion":
         s_unstable = path.points[-1].parameter
         prob.restore_state(last_stable["state"])
@@ -174,7 +225,52 @@ def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: flo
     summary["wall_s"] = time.perf_counter() - start
     summary["ndof_section"] = prob.space.ndof
     run_dir.write_json("summary.json", summary)
+    plot_profiles({p: profile}, run_dir.file("profile_end.png"), title=f"n0 = {n0:g}, nR = {nR:g}, t/R = {t:g}, "
+                  f"mu = {summary['mu_end']:.2g}")
     return summary
+
+
+SWEEP_KEYS = ("found", "k_critical", "mu_critical", "mu_end", "rim_rise_end", "profile_exponent_end",
+              "lowest_nonaxisymmetric_eigenvalue", "wall_s")
+
+
+def sweep(out: str, ps, **options) -> list[dict]:
+    """``run`` for every grading exponent in ``ps`` (one folder each); a table and the end
+    profiles of all of them in ``out``."""
+    run_dir = RunDirectory(out, params={"ps": list(ps), **options})
+    rows, profiles = [], {}
+    with History(run_dir.file("sweep.csv")) as table:
+        for p in ps:
+            summary = run(str(run_dir.file(f"p{p:g}")), p=p, **options)
+            bifurcations = [e["mu"] for e in summary["axisymmetric_events"] if e["kind"] == "bifurcation"]
+            row = {"p": p, **{k: summary.get(k, math.nan) for k in SWEEP_KEYS},
+                   "mu_axisymmetric_bifurcation": bifurcations[0] if bifurcations else math.nan}
+            table.append(row)
+            rows.append(row)
+            profiles[p] = np.loadtxt(run_dir.file(f"p{p:g}") / "profile_end.csv", delimiter=",", skiprows=1)
+    plot_profiles(profiles, run_dir.file("profiles.png"), title=f"end profiles, {options}")
+    return rows
+
+
+def plot_profiles(profiles: dict, path, *, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for p, profile in profiles.items():
+        for sign in (1, -1):  # the section and its mirror image through the axis
+            ax.plot(sign * profile[:, 1], profile[:, 2], color=f"C{list(profiles).index(p)}",
+                    label=f"p = {p:g}, q = {shape_exponent(profile):.2f}" if sign == 1 else None)
+    ax.set_aspect("equal")
+    ax.set_xlabel("r (current)")
+    ax.set_ylabel("z - z(centre)")
+    ax.set_title(title, fontsize=8)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
 
 
 def plot(run_dir, radii, radial, hoop, amplitude, *, history_path, summary) -> None:
@@ -221,17 +317,27 @@ def main(argv=None) -> dict:
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--mu0", type=float, default=-1.0, help="starting chemical potential")
     parser.add_argument("--kmax", type=int, default=15, help="largest wave number scanned")
-    parser.add_argument("--imperfection", type=float, default=1e-4, help="top dead load / (E0 t)")
+    parser.add_argument("--imperfection", type=float, default=0.0,
+                        help="top shear dead load / (E0 t) (default 0: branch switching, no imperfection)")
+    parser.add_argument("--sweep", type=float, nargs="+", help="run these grading exponents p instead of --p")
     parser.add_argument("--quick", action="store_true", help="coarse (also set by env CI)")
     args = parser.parse_args(argv)
-    summary = run(args.out, n0=args.n0, nR=args.nR, p=args.p, t=args.t, maxh=args.maxh, layers=args.layers,
-                  order=args.order, mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection, quick=args.quick or bool(os.environ.get("CI")))
+    options = dict(n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, layers=args.layers, order=args.order,
+                   mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection,
+                   quick=args.quick or bool(os.environ.get("CI")))
+    if args.sweep:
+        rows = sweep(args.out, args.sweep, **options)
+        for row in rows:
+            print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
+        return {"sweep": rows}
+    summary = run(args.out, p=args.p, **options)
     if summary["found"]:
         print(f"onset: mu_c = {summary['mu_critical']:.5f}, k_c = {summary['k_critical']}, mismatch strain "
               f"{summary['critical_swelling_strain']:.4f}, hoop compressive from r = {summary['hoop_compressive_from_r']}; "
               f"{summary['wall_s']:.1f} s; results in {args.out}")
     else:
-        print(f"stable and axisymmetric up to mu = 0 (rim rise {summary['rim_rise_end']:+.4f}); "
+        print(f"no non-axisymmetric instability up to mu = 0 (rim rise {summary['rim_rise_end']:+.4f}, profile "
+              f"exponent {summary['profile_exponent_end']:.2f}, events {summary['axisymmetric_events']}); "
               f"{summary['wall_s']:.1f} s; results in {args.out}")
     return summary
 

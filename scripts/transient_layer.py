@@ -11,15 +11,13 @@ of ``mu`` and ``J`` through the thickness at output times, the uptake against ``
 
 from __future__ import annotations
 
-import argparse
-import os
 import time
 
 import numpy as np
 from ngsolve.meshes import MakeStructured2DMesh
 
 from ngsgel import FloryRehnerGel, PlaneStrain
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.transient import TransientProblem, march, time_ramp
 
 WIDTH = 0.1  # one element across: the layer is laterally infinite
@@ -121,16 +119,10 @@ def plot(result, profiles: dict, final_uptake: float, path, *, title: str) -> No
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/transient_layer", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="coarse mesh, fewer outputs (also set by env CI)")
-    parser.add_argument("--Nv", type=float, default=1e-3)
-    parser.add_argument("--chi", type=float, default=0.5)
-    parser.add_argument("--mu0", type=float, default=-1.0, help="initial (dry-ish) chemical potential")
-    parser.add_argument("--mu-ext", type=float, default=0.0, help="chemical potential of the bath")
-    parser.add_argument("--ramp", type=float, default=1e-4, help="duration of the immersion ramp")
+    parser = scene_parser(__doc__, out="results/transient_layer", quick="coarse mesh, fewer outputs",
+                          swelling=dict(Nv=1e-3, chi=0.5, mu0=-1.0, mu_ext=0.0, ramp=1e-4))
     args = parser.parse_args(argv)
-    summary = run(args.out, quick=args.quick or bool(os.environ.get("CI")), Nv=args.Nv, chi=args.chi,
+    summary = run(args.out, quick=quick_run(args), Nv=args.Nv, chi=args.chi,
                   mu0=args.mu0, mu_ext=args.mu_ext, ramp=args.ramp)
     print(f"{summary['steps']} steps, uptake {summary['uptake']:.5e} (equilibrium "
           f"{summary['uptake_equilibrium']:.5e}), final volume ratio {summary['volume_ratio_final']:.2f}; "

@@ -21,9 +21,7 @@ that the axisymmetric and spherical models cannot have.
 
 from __future__ import annotations
 
-import argparse
 import math
-import os
 import time
 
 import numpy as np
@@ -31,7 +29,7 @@ from ngsolve.meshes import Make1DMesh
 
 from geometries import ball_octant, ball_section
 from ngsgel import Axisymmetric, FloryRehnerGel, Solid3D, SphericalSymmetric
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.transient import TransientProblem, TransientResult, march, time_ramp
 
 MODELS = ("line", "axisymmetric", "3d")
@@ -166,17 +164,11 @@ def plot(times, histories, rows, reference, finest: float, path) -> None:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/transient_sphere", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="coarse meshes only (also set by env CI)")
-    parser.add_argument("--Nv", type=float, default=1e-2)
-    parser.add_argument("--chi", type=float, default=0.5)
-    parser.add_argument("--mu0", type=float, default=-1.0, help="initial (dry-ish) chemical potential")
-    parser.add_argument("--mu-ext", type=float, default=-0.1, help="chemical potential of the bath")
-    parser.add_argument("--ramp", type=float, default=1e-4, help="duration of the immersion ramp")
-    parser.add_argument("--t-end", type=float, default=3.0)
+    parser = scene_parser(__doc__, out="results/transient_sphere", quick="coarse meshes only",
+                          swelling=dict(Nv=1e-2, chi=0.5, mu0=-1.0, mu_ext=-0.1, ramp=1e-4))
+    parser.add_argument("--t-end", type=float, default=3.0, help="end of the run")
     args = parser.parse_args(argv)
-    summary = run(args.out, quick=args.quick or bool(os.environ.get("CI")), Nv=args.Nv, chi=args.chi,
+    summary = run(args.out, quick=quick_run(args), Nv=args.Nv, chi=args.chi,
                   mu0=args.mu0, mu_ext=args.mu_ext, ramp=args.ramp, t_end=args.t_end)
     print(f"{'model':12s} {'h':>6s} {'unknowns':>8s} {'wall [s]':>9s} {'error':>9s} {'|3d-axi|':>9s}")
     for r in summary["rows"]:

@@ -26,6 +26,24 @@ def test_softer_edge_buckles_non_axisymmetrically_with_compressive_hoop_stress_a
     assert json.loads((tmp_path / "summary.json").read_text())["k_critical"] == summary["k_critical"]
 
 
+def test_softer_centre_swells_into_an_axisymmetric_bowl(tmp_path):
+    # softer centre (n0 = 1e-3, nR = 1e-2): the centre swells more, the flat (mid-plane
+    # symmetric) disk reaches an axisymmetric pitchfork, the driver switches onto the bowl
+    # branch and follows it to mu = 0 with no non-axisymmetric instability on the way
+    summary = graded_plate.main(["--out", str(tmp_path), "--quick", "--n0", "1e-3", "--nR", "1e-2", "--p", "2",
+                                 "--t", "0.05", "--kmax", "3"])
+    kinds = [e["kind"] for e in summary["axisymmetric_events"]]
+    assert kinds[:2] == ["bifurcation", "branch switch"], summary["axisymmetric_events"]
+    assert -1.0 < summary["axisymmetric_events"][0]["mu"] < 0.0
+    assert not summary["found"] and summary["mu_end"] == pytest.approx(0.0, abs=1e-12)
+    assert summary["lowest_nonaxisymmetric_eigenvalue"] > 0
+    assert abs(summary["rim_rise_end"]) > 0.1  # a bowl, not a flat disk
+    assert 1.0 < summary["profile_exponent_end"] < 3.0
+    profile = np.loadtxt(tmp_path / "profile_end.csv", delimiter=",", skiprows=1)
+    z = profile[:, 2] * np.sign(summary["rim_rise_end"])
+    assert np.all(np.diff(z) > 0)  # the rise grows monotonically from the centre to the rim
+
+
 def test_graded_plate_rejects_bad_input(tmp_path):
     with pytest.raises(ValueError, match="layers"):
         graded_plate.build(n0=1e-2, nR=1e-3, p=10, t=0.05, maxh=0.1, layers=3)
