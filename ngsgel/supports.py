@@ -36,7 +36,7 @@ import math
 import numpy as np
 import ngsolve as ngs
 
-__all__ = ["pin_rigid_modes"]
+__all__ = ["pin_rigid_modes", "pin_vertex_component"]
 
 
 def _nearest_vertex(mesh: ngs.Mesh, point: np.ndarray) -> tuple[int, float]:
@@ -76,3 +76,36 @@ def pin_rigid_modes(problem, *, radius: float, center=(0.0, 0.0), tolerance: flo
         free.Clear(space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[component])
         vertices.append(vertex)
     return vertices
+
+
+def pin_vertex_component(problem, *, point, component: int, tolerance: float = 1e-6) -> int:
+    """Fix displacement ``component`` (0: x, 1: y) of the vertex at ``point`` (within
+    ``tolerance``), also after the problem has been solved: the free-dof mask and the problem's
+    cached factorisation are renewed. Returns the dof number.
+
+    Used to pin the phase of a wave pattern on a ring (``u_y = 0`` at a vertex on the x axis):
+    on a rotationally symmetric body the rotation of a buckling pattern relative to the material
+    is a zero mode of the continuum, broken only by the mesh (tangent eigenvalue ~1e-12 of the
+    next one at the gears' buckled state), which stalls Newton. The pin carries no load in every
+    state that is mirror-symmetric about the x axis (a periodic pattern with a crest or trough
+    at angle 0); its reaction is the check."""
+    mesh = problem.mesh
+    if component not in (0, 1):
+        raise ValueError(f"component must be 0 or 1, got {component!r}")
+    p = np.asarray(point, dtype=float)
+    if p.shape != (2,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"point must be two finite coordinates, got {point!r}")
+    vertex, distance = _nearest_vertex(mesh, p)
+    if distance > tolerance:
+        raise ValueError(f"no mesh vertex within {tolerance:g} of {tuple(p)} (nearest at distance {distance:g})")
+    space = problem.space
+    dof = space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[component]
+    free = space.FreeDofs()
+    if not free[dof]:
+        raise ValueError(f"the {'xy'[component]} displacement of the vertex at {tuple(p)} is already fixed")
+    free.Clear(dof)
+    if getattr(problem, "_form", None) is not None:  # built: renew what was derived from the free dofs
+        from .newton import LinearSolver
+        problem.free_mask = np.array(list(space.FreeDofs()), dtype=bool)
+        problem._solver = LinearSolver(space.FreeDofs(), inverse=problem.inverse)
+    return dof
