@@ -37,6 +37,8 @@ import argparse
 import math
 import os
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import ngsolve as ngs
@@ -44,8 +46,8 @@ import ngsolve as ngs
 from geometries import plate_section
 from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
-from ngsgel.continuation import StabilityOptions
-from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
+from ngsgel.continuation import PathResult, StabilityOptions
+from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory
 
 CHI = 0.5
@@ -134,13 +136,6 @@ def shape_exponent(profile: np.ndarray) -> float:
     return float(minimize_scalar(lambda q: np.sum((w - r**q) ** 2), bounds=(0.2, 20), method="bounded").x)
 
 
-def history_rows(path) -> list[dict]:
-    import csv
-
-    with open(path) as f:
-        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
-
-
 def compressive_from(radii: np.ndarray, hoop: np.ndarray) -> float | None:
     """Smallest radius beyond which the hoop stress stays compressive (None if never)."""
     negative = hoop < 0
@@ -148,6 +143,62 @@ def compressive_from(radii: np.ndarray, hoop: np.ndarray) -> float | None:
         return None
     last_positive = np.flatnonzero(~negative)
     return float(radii[last_positive[-1] + 1]) if len(last_positive) else float(radii[0])
+
+
+@dataclass
+class ScannedPath:
+    path: PathResult
+    stability: HarmonicStability
+    onset: InstabilityOnset | None  # the state is left at the onset when there is one
+    end_parameter: float  # where the path stopped (the first unstable state, or the target)
+    end_profile: np.ndarray | None  # the caller's end_profile() there
+    lowest_nonaxisymmetric: float  # the lowest k >= 1 eigenvalue seen along the path
+
+
+def scan_path(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
+              step: float, ks: list[int], length: float, history: History, progress,
+              observe: Callable[[], dict], end_profile: Callable[[], np.ndarray] | None = None) -> ScannedPath:
+    """Follow the axisymmetric path of a graded gel in its soft stretch to ``target``: the driver
+    locates axisymmetric bifurcations (a bowl leaving the flat state) and switches onto the new
+    branch along the critical mode, ``0.1 length`` deep; every state is scanned over the wave
+    numbers ``ks`` (non-axisymmetric, rigid motions excluded) and recorded in ``history`` with the
+    quantities ``observe()`` returns. At the first negative eigenvalue the run stops and the
+    onset is bisected from the last stable state."""
+    hs = HarmonicStability(prob)
+    last_stable: dict = {"s": stretch.Get(), "state": prob.save_state()}
+    lowest_seen = [math.inf]
+
+    def unstable(point) -> bool:
+        scan = hs.scan(ks, exclude_rigid=True)
+        lowest = scan.lowest
+        lowest_seen[0] = min(lowest_seen[0], *lowest.values())
+        mu = mismatch_strain(point.parameter, *nv)[0]
+        observed = observe()
+        history.append({"soft_stretch": point.parameter, "mu": mu, **observed, "critical_k": scan.critical_k,
+                        **{f"lowest_k{k}": v for k, v in lowest.items()}})
+        progress(f"s = {point.parameter:.4f} mu = {mu:+.5f}  " + "  ".join(f"{k} {v:+.4f}" for k, v in observed.items())
+                 + f"  lowest k = {scan.critical_k} ({min(lowest.values()):+.3e})")
+        if scan.unstable:
+            return True
+        last_stable.update(s=point.parameter, state=prob.save_state())
+        return False
+
+    axisymmetric = StabilityOptions(eigenvalues=2, switch=True, amplitude=0.1, length=length, tol=1e-6)
+    path = follow_path(prob, stretch, method="natural", step=step, max_step=step, target=target,
+                       stop=unstable, stability=axisymmetric)
+    end_parameter = stretch.Get()
+    profile = end_profile() if end_profile is not None else None
+    onset = None
+    if path.stop_reason == "criterion":
+        s_unstable = path.points[-1].parameter
+        prob.restore_state(last_stable["state"])
+        stretch.Set(last_stable["s"])
+        onset = first_harmonic_instability(prob, stretch, s_unstable, ks=ks, step=s_unstable - last_stable["s"],
+                                           tolerance=1e-6, stability=hs)
+        if not onset.found:
+            raise RuntimeError(f"the instability seen at s = {s_unstable} was not found again on bisection")
+    return ScannedPath(path=path, stability=hs, onset=onset, end_parameter=end_parameter, end_profile=profile,
+                       lowest_nonaxisymmetric=lowest_seen[0])
 
 
 def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
@@ -166,50 +217,26 @@ def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: flo
                           imperfection=imperfection)
     stretch_end = FloryRehnerGel(Nv=min(n0, nR), chi=CHI).lam_free(0.0)
     step = (stretch_end - stretch.Get()) / (25 if quick else 60)
-    hs = HarmonicStability(prob)
     ks = list(range(1, kmax + 1))  # k = 0 is the section's own tangent: the driver checks it
     radii = np.linspace(0.0, 1.0, 101)[1:]
     centre = prob.mesh(0.0, 0.0)
     rim = prob.mesh(1.0, 0.0)
-    last_stable: dict = {"s": stretch.Get(), "state": prob.save_state()}
 
     with History(run_dir.file("path.csv")) as history:
-        def unstable(point) -> bool:
-            scan = hs.scan(ks, exclude_rigid=True)
-            lowest = scan.lowest
-            deflection = prob.displacement(rim)[1] - prob.displacement(centre)[1]
-            mu = mismatch_strain(point.parameter, n0, nR)[0]
-            history.append({"soft_stretch": point.parameter, "mu": mu,
-                            "rim_rise": deflection, "critical_k": scan.critical_k,
-                            **{f"lowest_k{k}": v for k, v in lowest.items()}})
-            progress(f"s = {point.parameter:.4f} mu = {mu:+.5f}  rim rise {deflection:+.4f}  lowest k = {scan.critical_k} "
-                     f"({min(lowest.values()):+.3e})")
-            if scan.unstable:
-                return True
-            last_stable.update(s=point.parameter, state=prob.save_state())
-            return False
-
-        # a bowl leaves the flat state at a pitchfork: switch along the critical mode, 0.1 t deep
-        axisymmetric = StabilityOptions(eigenvalues=2, switch=True, amplitude=0.1, length=t, tol=1e-6)
-        path = follow_path(prob, stretch, method="natural", step=step, max_step=step, target=stretch_end,
-                           stop=unstable, stability=axisymmetric)
-    profile = midplane_profile(prob, radii)
+        scanned = scan_path(prob, stretch, nv=(n0, nR), target=stretch_end, step=step, ks=ks, length=t,
+                            history=history, progress=progress,
+                            observe=lambda: {"rim_rise": prob.displacement(rim)[1] - prob.displacement(centre)[1]},
+                            end_profile=lambda: midplane_profile(prob, radii))
+    path, onset, hs = scanned.path, scanned.onset, scanned.stability
+    profile = scanned.end_profile
     np.savetxt(run_dir.file("profile_end.csv"), profile, delimiter=",", header="R,r,z", comments="")
     summary: dict = {"found": False, "rim_rise_end": float(profile[-1, 2]),
-                     "mu_end": mismatch_strain(stretch.Get(), n0, nR)[0],
+                     "mu_end": mismatch_strain(scanned.end_parameter, n0, nR)[0],
                      "profile_exponent_end": shape_exponent(profile),
                      "axisymmetric_events": [{"kind": e.kind, "soft_stretch": e.parameter,
                                               "mu": mismatch_strain(e.parameter, n0, nR)[0]} for e in path.events],
-                     "lowest_nonaxisymmetric_eigenvalue": min(min(row[f"lowest_k{k}"] for k in ks)
-                                                              for row in history_rows(run_dir.file("path.csv")))}
-    if path.stop_reason == "criterion":
-        s_unstable = path.points[-1].parameter
-        prob.restore_state(last_stable["state"])
-        stretch.Set(last_stable["s"])
-        onset = first_harmonic_instability(prob, stretch, s_unstable, ks=ks, step=s_unstable - last_stable["s"],
-                                           tolerance=1e-6, stability=hs)
-        if not onset.found:
-            raise RuntimeError(f"the instability seen at s = {s_unstable} was not found again on bisection")
+                     "lowest_nonaxisymmetric_eigenvalue": scanned.lowest_nonaxisymmetric}
+    if onset is not None:
         mu_c, strain_c = mismatch_strain(onset.parameter, n0, nR)
         radial, hoop = stress_profile(prob, radii)
         np.savetxt(run_dir.file("onset_profile.csv"), np.column_stack([radii, radial, hoop]), delimiter=",",
