@@ -53,3 +53,14 @@ def test_graded_plate_rejects_bad_input(tmp_path):
         graded_plate.build(n0=1e-2, nR=1e-3, p=-1, t=0.05, maxh=0.1)
     with pytest.raises(ValueError, match="kmax"):
         graded_plate.run(str(tmp_path), kmax=1)
+
+
+def test_graded_tube_rejects_bad_input():
+    import graded_tube
+
+    with pytest.raises(ValueError, match="t "):
+        graded_tube.build(n0=1e-2, nL=1e-3, p=5, t=1.5, L=2, maxh=0.1, order=2, mu0=-1.0)
+    with pytest.raises(ValueError, match="p"):
+        graded_tube.build(n0=1e-2, nL=1e-3, p=0, t=0.02, L=2, maxh=0.1, order=2, mu0=-1.0)
+    with pytest.raises(ValueError, match="kmax"):
+        graded_tube.run("unused", kmax=1)
