@@ -182,7 +182,7 @@ def classify(model: GearModel, threshold: float) -> dict:
 
 # ----------------------------------------------------------------------------- runs
 def onset(model: GearModel, *, history=None, progress=None, start_mu: float | None = None,
-          step_fraction: float = 0.015, tol_fraction: float = 2e-4):
+          step_fraction: float = 0.03, tol_fraction: float = 2e-4):
     """Follow ``mu`` down with stability checks until the first loss of stability, then locate it
     by bisection on the exact negative count to ``tol_fraction`` of the ``mu`` span.
 
@@ -230,19 +230,25 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
             hi = point
         else:
             lo = point
+    # the critical pair: the two lowest eigenvalues on the stable side of the bracket (the next
+    # to cross; on the unstable side several pairs of neighbouring wave numbers can already be
+    # negative, and the most negative need not be the first that crossed). A ring's pair is cos
+    # and sin (equal eigenvalues: the split is recorded); the soft global mode stays higher.
+    # The mode is their combination that is mirror-symmetric about the x axis (a crest or trough
+    # at angle 0), see ``switch_branch``.
+    p.restore_state(lo[1])
+    p.mu.Set(lo[0])
+    spec = spectrum(p, count=2)
+    phi = mirror_symmetric_mode(model, spec.modes[:, :2])
     p.restore_state(hi[1])
     p.mu.Set(hi[0])
-    spec = spectrum(p, count=2)
-    # the two most negative: the buckling pair of the ring (cos and sin, equal eigenvalues; the
-    # soft global mode stays > 0); the mode is their combination that is mirror-symmetric about
-    # the x axis (a crest or trough at angle 0), see ``switch_branch``
-    phi = mirror_symmetric_mode(model, spec.modes[:, :2])
+    negative_after = negative()
     mode = mode_function(p, phi)
     qoi = {k: f() for k, f in model.qoi().items()}
     mode_waves = {film: model.waves(mode, film) for film in ("inner", "outer")}
     located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
-    record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": spec.negative,
-              "eigenvalues_after": [float(v) for v in spec.eigenvalues],
+    record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": negative_after,
+              "eigenvalues_before": [float(v) for v in spec.eigenvalues],
               "volume_fraction_cr": qoi["volume_fraction"],
               "hoop_inner_cr": qoi["hoop_inner"], "hoop_outer_cr": qoi["hoop_outer"],
               "mode_k_inner": mode_waves["inner"]["k"], "mode_k_outer": mode_waves["outer"]["k"],
@@ -251,7 +257,7 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
               "pair_eigenvalue_split": abs(float(spec.eigenvalues[1] - spec.eigenvalues[0])) / abs(float(spec.eigenvalues[0])),
               "mode_film_amplitude": mode_waves[located]["amplitude"]}
     if history is not None:
-        history.append({"step": "onset", "parameter": record["mu_cr"], **qoi, "negative": spec.negative,
+        history.append({"step": "onset", "parameter": record["mu_cr"], **qoi, "negative": negative_after,
                         "events": f"onset {located} film, {record['mode_k']} waves"})
     return record, (hi[1], hi[0], mode)
 
@@ -279,7 +285,7 @@ def mirror_symmetric_mode(model: GearModel, pair: np.ndarray) -> np.ndarray:
     return pair @ (np.array([v[1], -v[0]]) / np.linalg.norm(v))
 
 
-def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: float = 0.5) -> dict:
+def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: float = 0.25) -> dict:
     """Converge onto the buckled branch at a prescribed amplitude of the critical mode: the state
     is the located critical state plus ``s`` times the mode plus a correction orthogonal to the
     mode, ``mu`` is an unknown (bordered Newton, the driver's branch-switch corrector), ``s`` such
@@ -414,7 +420,7 @@ def pin_reaction(p, dof: int) -> float:
 
 
 def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, progress=None,
-               quick: bool = False, post_buckling: bool = True, path_step: float = 1 / 48,
+               quick: bool = False, post_buckling: bool = True, path_step: float = 1 / 1000,
                path_max_step: float = 1 / 4) -> dict:
     run = RunDirectory(out, params={"scene": asdict(scene), "resolution": asdict(res), "Es": ES, "Nv": NV,
                                     "chi": CHI, "Ri": RI, "Ro": RO, "teeth_threshold": threshold})
@@ -440,8 +446,12 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                                    f"(subcritical bifurcation): {switched}")
             # undamped natural steps: the first from the tangent predictor, then secant predictors
             span = abs(model.mu_end - model.tube.mu0)
-            path = follow_path(p, p.mu, method="natural", step=span * path_step, max_step=span * path_max_step,
-                               easy_iterations=5, newton_options={"atol": switched["atol"]},
+            # near the onset the amplitude grows like sqrt(mu_cr - mu): a first step of twice the
+            # switch's distance from the onset, doubled after every easy step (a fixed first step of
+            # span/48 from 0.1 t_f failed five times before it converged, 100 s of the quick run)
+            first = min(max(2 * switched["mu_past_onset_fraction"], path_step), 1 / 24)
+            path = follow_path(p, p.mu, method="natural", step=span * first, max_step=span * path_max_step,
+                               easy_iterations=5, grow=2.0, newton_options={"atol": switched["atol"]},
                                target=model.mu_end, history=history, progress=progress,
                                # quick: stability only at the end (one LDL^T per step saved)
                                qoi={**model.qoi(), "negative_count": (lambda: math.nan) if quick else (lambda: negative_count_of(p)),
