@@ -45,7 +45,7 @@ from ngsgel.contact import crossing_pairs, plane_contact, surface_line  # noqa: 
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
 from ngsgel.surface import surface_tension as surface_tension_density  # noqa: E402
-from ngsgel.stability import free_matrix, negative_count  # noqa: E402
+from ngsgel.stability import free_matrix, negative_count, spectrum  # noqa: E402
 from ngsgel.stepping import RampError, ramp  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 from ngsgel.transient import TransientError, TransientProblem, march, time_ramp  # noqa: E402
@@ -252,7 +252,9 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
         rows.append(row)
         if history:
             history.append(row)
-        state["max_penetration"] = max(state["max_penetration"], surf["penetration"])
+        if surf["penetration"] > state["max_penetration"]:
+            state["max_penetration"] = surf["penetration"]
+            state["max_penetration_time"] = rec.time
         state["max_crossings"] = max(state["max_crossings"], surf["self_crossings"])
         creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
         interior = surf["self_crossings"] > 0
@@ -300,7 +302,7 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
     message = "reached t_end"
     with ngs.TaskManager() if setup.threads else _nothing():
         try:
-            march(prob, t_end, dt_start=setup.ramp / 10, dt_max=dt_max, dt_min=setup.ramp * 1e-4,
+            march(prob, t_end, dt_start=setup.ramp / 10, dt_max=dt_max, dt_min=setup.ramp * 1e-7,
                   output_times=outputs, on_step=on_step)
         except _Stop:
             if state["interior"] is not None:
@@ -335,6 +337,7 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                "viscous_dissipation": state["dissipation"],
                "network_energy_scale": setup.gel.shear_modulus(setup.lam0) * setup.width * setup.thickness,
                "max_penetration_over_h": state["max_penetration"], "max_self_crossings": state["max_crossings"],
+               "max_penetration_time": state.get("max_penetration_time"),
                "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO}
     if run_dir:
         run_dir.write_json("summary.json", summary)
@@ -428,12 +431,27 @@ def linear_threshold(setup: Setup, *, mu_tol: float = 1e-7) -> dict:
             "residual_homogeneous": residual}
 
 
+def fold_estimate(path: list[dict]) -> float | None:
+    """``mu`` of the fold (limit point) from the last two states before a snap: near a fold the
+    lowest eigenvalue of the tangent vanishes like ``sqrt(mu_c - mu)``, so ``lambda^2`` is linear
+    in ``mu``; extrapolated to zero. None when the eigenvalues do not decrease towards the end."""
+    pts = [(p["mu"], p["lowest_eigenvalue"]) for p in path if p.get("lowest_eigenvalue") is not None]
+    if len(pts) < 2:
+        return None
+    (m1, l1), (m2, l2) = pts[-2], pts[-1]
+    if not (0 < l2 < l1 and m2 > m1):
+        return None
+    return m2 + l2**2 * (m2 - m1) / (l1**2 - l2**2)
+
+
 def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 1.8, mu_end: float = 0.0,
-                     history: History | None = None) -> dict:
+                     history: History | None = None, eigenvalues: bool = True) -> dict:
     """Raise ``mu`` on the imperfect layer with contact; the crease threshold is the first state with
     the faces in contact (or, if the groove snaps shut, the last converged ``mu``). The ramp starts
     at the ``mu`` where the homogeneous ratio is ``start_ratio`` (well below any threshold), from the
-    closed-form homogeneous state as the first Newton guess."""
+    closed-form homogeneous state as the first Newton guess. With ``eigenvalues`` the lowest
+    eigenvalue of the tangent is recorded along the ramp: at a snap it says whether the last state
+    is next to a fold (eigenvalue -> 0), and ``fold_estimate`` extrapolates the fold's ``mu``."""
     if not 1.0 < start_ratio < setup.ratio(mu_end):
         raise ValueError(f"start_ratio must be in (1, {setup.ratio(mu_end):.4g}), got {start_ratio!r}")
     prob = build_equilibrium(setup, imperfect=True, contact=True)
@@ -455,7 +473,8 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
         surf.pop("profile")
         path.append({"mu": mu, "ratio": setup.ratio(mu), "groove_depth": surf["groove_depth"],
                      "crease_depth": surf["crease_depth_left"], "penetration": surf["penetration"],
-                     "self_crossings": surf["self_crossings"]})
+                     "self_crossings": surf["self_crossings"],
+                     "lowest_eigenvalue": float(spectrum(prob, count=1).eigenvalues[0]) if eigenvalues else None})
         if history is not None:
             history.append(path[-1])
         if surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0:
@@ -473,6 +492,10 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
         last = path[-1]["mu"] if path else setup.mu0
         found.update(mu=last, ratio=setup.ratio(last), how="no converged state beyond (snap)")
         message = str(err)
+        fold = fold_estimate(path)
+        if path and path[0].get("lowest_eigenvalue") is not None:
+            found.update(eigenvalue_first=path[0]["lowest_eigenvalue"], eigenvalue_last=path[-1]["lowest_eigenvalue"],
+                         fold_mu=fold, fold_ratio=None if fold is None or fold >= mu_end else setup.ratio(fold))
     return {"amplitude": setup.amplitude, "top_h": setup.top_h, "ndof": prob.space.ndof,
             "wall_seconds": time.perf_counter() - wall0, "message": message, **found, "path": path}
 
@@ -513,7 +536,8 @@ def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, crease
                     res = {"amplitude": a, "top_h": h, "wall_seconds": None, "message": f"failed: {err}",
                            "how": "failed", "path": []}
             crease.append({k: v for k, v in res.items() if k != "path"})
-            progress(f"crease threshold, a/W = {a}, h = {h}: mu = {res.get('mu')}, ratio = {res.get('ratio')} "
+            progress(f"crease threshold, a/W = {a}, h = {h}, gamma/GH = {s.surface_tension}: mu = {res.get('mu')}, ratio = {res.get('ratio')} "
+                     f"(fold estimate {res.get('fold_ratio')}, lowest eigenvalue {res.get('eigenvalue_first')} -> {res.get('eigenvalue_last')}) "
                      f"({res.get('how')}), {res['wall_seconds']}s {res['message'][:120]}")
     summary = {"homogeneous_check": check, "linear": linear, "crease": crease, "biot_ratio": BIOT_RATIO,
                "crease_ratio_literature": CREASE_RATIO, "ratio_at_mu0": 1.0, "ratio_at_mu_0": setup.ratio(0.0),
@@ -526,36 +550,58 @@ def run_equilibrium(setup: Setup, out: str | None, *, meshes, amplitudes, crease
 # ----------------------------------------------------------------------------- study
 
 
-def run_study(setup: Setup, out: str, *, cases: list[tuple[str, dict, float | None]], t_end: float) -> list[dict]:
+def run_study(setup: Setup, out: str, *, cases: list[tuple[str, dict, float | None]], t_end: float,
+              dt_max: float | None = None) -> list[dict]:
     """Transient onset for each case ``(label, changes to setup, dt_max)``, one row per run with
-    its wall time, written as it finishes."""
+    its wall time, written as it finishes; ``dt_max`` for the cases that give none."""
+    default_dt_max = dt_max
     run_dir = RunDirectory(out, params={**setup.__dict__, "cases": [[k, c, d] for k, c, d in cases]})
     progress = Progress("creases-study")
     rows = []
     with History(run_dir.file("study.csv")) as hist:
         for kind, change, dt_max in cases:
+            dt_max = default_dt_max if dt_max is None else dt_max
             s = Setup(**{**setup.__dict__, **change})
             summ = run_transient(s, None, t_end=t_end, dt_max=dt_max, after_onset=1.0, quiet=True)
             onset = summ["onset"] or summ["interior_crease"] or {}
             where = (summ["onset"]["onset_kind"] if summ["onset"] else ("interior" if summ["interior_crease"] else "none"))
             row = {"varied": kind, "crease_at": where, "top_h": s.top_h, "width": s.width, "amplitude": s.amplitude,
-                   "viscosity": s.viscosity, "dt_max": dt_max, "ndof": summ["ndof"], "steps": summ["steps"],
+                   "viscosity": s.viscosity, "surface_tension": s.surface_tension, "dt_max": dt_max, "ndof": summ["ndof"], "steps": summ["steps"],
                    "wall_seconds": summ["wall_seconds"], "onset_time": onset.get("time"), "onset_previous_time": onset.get("previous_time"),
                    "onset_swollen_depth": onset.get("swollen_depth"),
                    "onset_swollen_depth_current": onset.get("swollen_depth_current"),
                    "onset_depth_over_width": (onset["swollen_depth"] / s.width) if onset else None,
                    "onset_surface_ratio": onset.get("surface_ratio"), "onset_skin_ratio": onset.get("skin_ratio"),
                    "max_relative_balance_error": summ["max_relative_balance_error"],
+                   "cumulative_balance_error_relative": summ["cumulative_balance_error_relative"],
+                   "max_penetration_time": summ["max_penetration_time"],
                    "max_penetration_over_h": summ["max_penetration_over_h"],
                    "max_self_crossings": summ["max_self_crossings"], "message": summ["message"]}
             rows.append(row)
             hist.append(row)
-            progress(f"{kind}: h={s.top_h} W={s.width} a={s.amplitude} eta={s.viscosity} dt_max={dt_max}: onset "
-                     f"t={row['onset_time']} depth={row['onset_swollen_depth']} ({row['wall_seconds']:.1f}s, "
-                     f"{row['ndof']} dofs)")
+            progress(f"{kind}: h={s.top_h} W={s.width} a={s.amplitude} eta={s.viscosity} gamma/GH={s.surface_tension} "
+                     f"dt_max={dt_max}: onset t={row['onset_time']} ({where}) depth={row['onset_swollen_depth']} "
+                     f"surface ratio={row['onset_surface_ratio']} ({row['wall_seconds']:.1f}s, {row['ndof']} dofs, "
+                     f"{row['message']})")
     return rows
 
 
+# With surface energy (gamma/(G H) as given, default 0.02): onset against the mesh at a fixed
+# elastocapillary length (top_h/l = 1, 0.5, 0.25, 0.125 at 0.02), a smaller imperfection on the
+# two finest meshes, and the dependence on gamma. Meant for a linearly stable skin, e.g.
+# ``--study --mu0 -0.1 --amplitude 0.1 --t-end 5`` (docs/creases.md).
+SURFACE_STUDY_CASES = [("mesh", {"top_h": 0.02}, None), ("mesh", {"top_h": 0.01}, None),
+                       ("mesh", {"top_h": 0.005}, None), ("mesh", {"top_h": 0.0025}, None),
+                       ("amplitude", {"top_h": 0.005, "amplitude": 0.03}, None),
+                       ("amplitude", {"top_h": 0.0025, "amplitude": 0.03}, None),
+                       ("surface_tension", {"top_h": 0.005, "surface_tension": 0.01}, None),
+                       ("surface_tension", {"top_h": 0.005, "surface_tension": 0.04}, None),
+                       # the bulk mesh refined with the surface (the swelling front lies in the bulk)
+                       ("mesh+bulk", {"top_h": 0.01, "maxh": 0.025}, None),
+                       ("mesh+bulk", {"top_h": 0.005, "maxh": 0.0125}, None),
+                       ("mesh+bulk", {"top_h": 0.0025, "maxh": 0.00625}, None),
+                       ("bulk", {"top_h": 0.005, "maxh": 0.025}, None),
+                       ("bulk", {"top_h": 0.0025, "maxh": 0.0125}, None)]
 STUDY_CASES = [("amplitude", {"amplitude": 0.05}, None), ("amplitude", {"amplitude": 0.003}, None),
                ("mesh", {"amplitude": 0.05, "top_h": 0.01}, None),
                ("width", {"width": 0.1, "top_h": 0.01, "maxh": 0.025}, None),
@@ -569,6 +615,10 @@ def main(argv=None) -> dict:
     parser.add_argument("--quick", action="store_true", help="coarse mesh (also set by env CI)")
     parser.add_argument("--equilibrium", action="store_true", help="quasi-static counterpart instead")
     parser.add_argument("--study", action="store_true", help="onset vs mesh, dt and imperfection")
+    parser.add_argument("--study-cases", choices=("sharp", "surface"), default="surface",
+                        help="--study: 'surface' (default): mesh, imperfection and gamma with surface energy; "
+                        "'sharp': the sharp-interface study (mesh, dt, imperfection, stabiliser; gamma = 0)")
+    parser.add_argument("--cases", default="", help="--study: comma-separated indices of the cases to run (default all)")
     parser.add_argument("--Nv", type=float, default=Setup.Nv)
     parser.add_argument("--chi", type=float, default=Setup.chi)
     parser.add_argument("--mu0", type=float, default=Setup.mu0)
@@ -587,7 +637,7 @@ def main(argv=None) -> dict:
                         help="surface energy of the top, gamma/(G H) (elastocapillary length over thickness; "
                         f"default {SURFACE_TENSION}: gamma = 0.07 N/m on this gel, G = 1.3e5 Pa, at H = 27 um, "
                         "or on a gel with G = 3.5e3 Pa at H = 1 mm; 0: none, the sharp-interface model)")
-    parser.add_argument("--t-end", type=float, default=0.2)
+    parser.add_argument("--t-end", type=float, default=2.0, help="end time (the run stops earlier, after the onset)")
     parser.add_argument("--dt-max", type=float, default=None)
     args = parser.parse_args(argv)
     quick = args.quick or bool(os.environ.get("CI"))
@@ -606,8 +656,13 @@ def main(argv=None) -> dict:
               f"{[(r['amplitude'], r['top_h'], r.get('ratio')) for r in summary['crease']]}")
         return summary
     if args.study:
-        base = Setup(**{**setup.__dict__, "top_h": 0.02})
-        rows = run_study(base, args.out, cases=STUDY_CASES, t_end=args.t_end)
+        if args.study_cases == "sharp":
+            base, cases = Setup(**{**setup.__dict__, "top_h": 0.02, "surface_tension": 0.0}), STUDY_CASES
+        else:
+            base, cases = Setup(**{**setup.__dict__, "maxh": max(setup.maxh, 0.05)}), SURFACE_STUDY_CASES
+        if args.cases:
+            cases = [cases[int(i)] for i in args.cases.split(",")]
+        rows = run_study(base, args.out, cases=cases, t_end=args.t_end, dt_max=args.dt_max)
         return {"study": rows}
     summary = run_transient(setup, args.out, t_end=args.t_end, dt_max=args.dt_max,
                             after_onset=1.2 if quick else 1.5)
