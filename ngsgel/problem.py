@@ -39,7 +39,38 @@ def quadrature_rules(order: int) -> dict:
             (ngs.ET.SEGM, ngs.ET.TRIG, ngs.ET.QUAD, ngs.ET.TET, ngs.ET.PRISM, ngs.ET.HEX)}
 
 
-class GelBody:
+class BuiltOnDemand:
+    """A discrete problem whose forms and state (the GridFunction ``gf``) are built by
+    ``_build()`` on first use, once its boundary conditions and loads are declared."""
+
+    _form: ngs.BilinearForm | None = None
+
+    @property
+    def form(self) -> ngs.BilinearForm:
+        if self._form is None:
+            self._build()
+        return self._form
+
+    @property
+    def gridfunction(self) -> ngs.GridFunction:
+        self.form
+        return self.gf
+
+    @property
+    def state(self) -> ngs.BaseVector:
+        return self.gridfunction.vec
+
+    def save_state(self) -> np.ndarray:
+        return self.state.FV().NumPy().copy()
+
+    def restore_state(self, saved: np.ndarray) -> None:
+        self.state.FV().NumPy()[:] = saved
+
+    def _build(self) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+class GelBody(BuiltOnDemand):
     """Mesh, kinematics, materials per region and the displacement space: what equilibrium and
     transient problems share. Boundary conditions must be declared before the space is built
     (the first access to ``space``). ``quadrature_order`` pins the rule of the energy
@@ -216,7 +247,7 @@ class EquilibriumProblem(GelBody):
         form = ngs.BilinearForm(V, symmetric=True)
         form += ngs.Variation(energy)
         self._form = form
-        self.gfu = ngs.GridFunction(V, name="displacement")
+        self.gf = ngs.GridFunction(V, name="displacement")
         self._scratch = ngs.GridFunction(V)
         self._target = ngs.GridFunction(V)
         self.free_mask = np.array(list(V.FreeDofs()), dtype=bool)
@@ -225,19 +256,8 @@ class EquilibriumProblem(GelBody):
         self._indicator_order = 2 * self.order + 2
 
     @property
-    def form(self) -> ngs.BilinearForm:
-        if self._form is None:
-            self._build()
-        return self._form
-
-    @property
     def displacement(self) -> ngs.GridFunction:
-        self.form
-        return self.gfu
-
-    @property
-    def state(self) -> ngs.BaseVector:
-        return self.displacement.vec
+        return self.gridfunction
 
     def residual(self, x, out) -> None:
         self.form.Apply(x, out)
@@ -294,8 +314,3 @@ class EquilibriumProblem(GelBody):
                 "sigma_xx": sigma[0, 0], "sigma_yy": sigma[1, 1], "sigma_zz": sigma[2, 2],
                 "sigma_xy": sigma[0, 1]}
 
-    def save_state(self) -> np.ndarray:
-        return self.state.FV().NumPy().copy()
-
-    def restore_state(self, saved: np.ndarray) -> None:
-        self.state.FV().NumPy()[:] = saved

@@ -75,6 +75,7 @@ import ngsolve as ngs
 
 from .materials import FloryRehnerGel, _check_lam0
 from .newton import LinearSolver, NewtonResult, newton
+from .problem import BuiltOnDemand
 
 __all__ = ["GelShell", "plate_bending_stiffness"]
 
@@ -96,7 +97,7 @@ def _normalize(v):
     return v / ngs.Norm(v)
 
 
-class GelShell:
+class GelShell(BuiltOnDemand):
     """Shell of a Flory–Rehner gel on a mid-surface mesh; see the module notes.
 
     ``mesh``: surface mesh in 3D (regions are ``mesh.Boundaries``, edges ``mesh.BBoundaries``);
@@ -390,20 +391,8 @@ class GelShell:
 
     # ------------------------------------------------------------------ NonlinearSystem
     @property
-    def form(self) -> ngs.BilinearForm:
-        if self._form is None:
-            self._build()
-        return self._form
-
-    @property
-    def state(self) -> ngs.BaseVector:
-        self.form
-        return self.gf.vec
-
-    @property
     def displacement(self) -> ngs.GridFunction:
-        self.form
-        return self.gf.components[0]
+        return self.gridfunction.components[0]
 
     def _point_load_vector(self, out) -> None:
         values = out.FV().NumPy()
@@ -456,12 +445,6 @@ class GelShell:
         newton_options.setdefault("xtol", max(1e-13, 1e-8 * self.thickness))
         with ngs.TaskManager():
             return newton(self, self._solver, **newton_options)
-
-    def save_state(self) -> np.ndarray:
-        return self.state.FV().NumPy().copy()
-
-    def restore_state(self, saved: np.ndarray) -> None:
-        self.state.FV().NumPy()[:] = saved
 
     def update_edge_normals(self) -> None:
         """Average the current element normals on every edge whose rotation is free, as the

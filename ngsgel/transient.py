@@ -299,25 +299,12 @@ class TransientProblem(GelBody):
         self.reset()
 
     @property
-    def form(self) -> ngs.BilinearForm:
-        if self._form is None:
-            self._build()
-        return self._form
-
-    @property
-    def state(self) -> ngs.BaseVector:
-        self.form
-        return self.gf.vec
-
-    @property
     def displacement(self) -> ngs.GridFunction:
-        self.form
-        return self.gf.components[0]
+        return self.gridfunction.components[0]
 
     @property
     def chemical_potential(self) -> ngs.GridFunction:
-        self.form
-        return self.gf.components[1]
+        return self.gridfunction.components[1]
 
     # -------------------------------------------------------- NonlinearSystem protocol
     def residual(self, x, out) -> None:
@@ -430,12 +417,6 @@ class TransientProblem(GelBody):
         return {"displacement": self.displacement, "mu": self.chemical_potential, "J": self.volume_ratio(),
                 "sigma_xx": sigma[0, 0], "sigma_yy": sigma[1, 1], "sigma_zz": sigma[2, 2],
                 "sigma_xy": sigma[0, 1]}
-
-    def save_state(self) -> np.ndarray:
-        return self.state.FV().NumPy().copy()
-
-    def restore_state(self, saved: np.ndarray) -> None:
-        self.state.FV().NumPy()[:] = saved
 
 
 def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: float | None = None,

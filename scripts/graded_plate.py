@@ -33,9 +33,7 @@ swollen, post-buckled plate: a 3D thin solid or shell run from the critical mode
 
 from __future__ import annotations
 
-import argparse
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -48,7 +46,7 @@ from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
 from ngsgel.continuation import PathResult, StabilityOptions
 from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability
-from ngsgel.output import History, Progress, RunDirectory
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
 CHI = 0.5
 
@@ -257,25 +255,34 @@ def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: flo
     return summary
 
 
-SWEEP_KEYS = ("found", "k_critical", "mu_critical", "mu_end", "rim_rise_end", "profile_exponent_end",
-              "lowest_nonaxisymmetric_eigenvalue", "wall_s")
+def plate_row(summary: dict) -> dict:
+    """One line of a sweep table."""
+    keys = ("found", "k_critical", "mu_critical", "mu_end", "rim_rise_end", "profile_exponent_end",
+            "lowest_nonaxisymmetric_eigenvalue", "wall_s")
+    bifurcations = [e["mu"] for e in summary["axisymmetric_events"] if e["kind"] == "bifurcation"]
+    return {**{k: summary.get(k, math.nan) for k in keys},
+            "mu_axisymmetric_bifurcation": bifurcations[0] if bifurcations else math.nan}
 
 
-def sweep(out: str, ps, **options) -> list[dict]:
-    """``run`` for every grading exponent in ``ps`` (one folder each); a table and the end
-    profiles of all of them in ``out``."""
+def sweep(out: str, ps, *, run_one: Callable[..., dict] | None = None, row: Callable[[dict], dict] = plate_row,
+          draw: Callable | None = None, **options) -> list[dict]:
+    """``run_one`` (default: this script's ``run``) for every grading exponent in ``ps``, one
+    folder each; the table of ``row(summary)`` and the end profiles drawn by ``draw`` in ``out``."""
+    run_one = run if run_one is None else run_one
     run_dir = RunDirectory(out, params={"ps": list(ps), **options})
     rows, profiles = [], {}
     with History(run_dir.file("sweep.csv")) as table:
         for p in ps:
-            summary = run(str(run_dir.file(f"p{p:g}")), p=p, **options)
-            bifurcations = [e["mu"] for e in summary["axisymmetric_events"] if e["kind"] == "bifurcation"]
-            row = {"p": p, **{k: summary.get(k, math.nan) for k in SWEEP_KEYS},
-                   "mu_axisymmetric_bifurcation": bifurcations[0] if bifurcations else math.nan}
-            table.append(row)
-            rows.append(row)
-            profiles[p] = np.loadtxt(run_dir.file(f"p{p:g}") / "profile_end.csv", delimiter=",", skiprows=1)
-    plot_profiles(profiles, run_dir.file("profiles.png"), title=f"end profiles, {options}")
+            folder = run_dir.file(f"p{p:g}")
+            rows.append({"p": p, **row(run_one(str(folder), p=p, **options))})
+            table.append(rows[-1])
+            profiles[p] = np.loadtxt(folder / "profile_end.csv", delimiter=",", skiprows=1)
+    if draw is None:
+        plot_profiles(profiles, run_dir.file("profiles.png"), title=f"end profiles, {options}")
+    else:
+        draw(profiles, run_dir.file("profiles.png"))
+    for line in rows:
+        print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in line.items()))
     return rows
 
 
@@ -332,31 +339,31 @@ def plot(run_dir, radii, radial, hoop, amplitude, *, history_path, summary) -> N
     plt.close(fig)
 
 
-def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/graded_plate")
-    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre")
-    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge")
+def add_grading_options(parser, *, t: float, t_help: str, maxh: float, kmax: int) -> None:
+    """The options every graded-gel scene shares: exponent(s), thickness, mesh, start, scan."""
     parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
-    parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
-    parser.add_argument("--maxh", type=float, default=0.02, help="cell width along r")
-    parser.add_argument("--layers", type=int, default=2, help="cells through the thickness (even)")
+    parser.add_argument("--sweep", type=float, nargs="+", help="run these grading exponents p instead of --p")
+    parser.add_argument("--t", type=float, default=t, help=t_help)
+    parser.add_argument("--maxh", type=float, default=maxh, help="cell size along the section")
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--mu0", type=float, default=-1.0, help="starting chemical potential")
-    parser.add_argument("--kmax", type=int, default=15, help="largest wave number scanned")
+    parser.add_argument("--kmax", type=int, default=kmax, help="largest wave number scanned")
+
+
+def main(argv=None) -> dict:
+    parser = scene_parser(__doc__, out="results/graded_plate", quick="coarse section, k <= 8")
+    add_grading_options(parser, t=0.01, t_help="thickness / radius", maxh=0.02, kmax=15)
+    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre")
+    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge")
+    parser.add_argument("--layers", type=int, default=2, help="cells through the thickness (even)")
     parser.add_argument("--imperfection", type=float, default=0.0,
                         help="top shear dead load / (E0 t) (default 0: branch switching, no imperfection)")
-    parser.add_argument("--sweep", type=float, nargs="+", help="run these grading exponents p instead of --p")
-    parser.add_argument("--quick", action="store_true", help="coarse (also set by env CI)")
     args = parser.parse_args(argv)
     options = dict(n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, layers=args.layers, order=args.order,
                    mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection,
-                   quick=args.quick or bool(os.environ.get("CI")))
+                   quick=quick_run(args))
     if args.sweep:
-        rows = sweep(args.out, args.sweep, **options)
-        for row in rows:
-            print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
-        return {"sweep": rows}
+        return {"sweep": sweep(args.out, args.sweep, **options)}
     summary = run(args.out, p=args.p, **options)
     if summary["found"]:
         print(f"onset: mu_c = {summary['mu_critical']:.5f}, k_c = {summary['k_critical']}, mismatch strain "

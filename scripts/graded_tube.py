@@ -28,7 +28,7 @@ import numpy as np
 
 from geometries import tube_section
 from geometries.fields import axial_grading
-from graded_plate import CHI, mismatch_strain, scan_path, soft_stretch_load
+from graded_plate import CHI, add_grading_options, mismatch_strain, scan_path, soft_stretch_load, sweep
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
 from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
@@ -124,22 +124,11 @@ def run(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float = 10.0, t: flo
     return summary
 
 
-SWEEP_KEYS = ("found", "k_critical", "k_at_scan_limit", "mu_critical", "penetration_depth", "mu_end", "head_flare_end",
-              "profile_curvature_end", "lowest_nonaxisymmetric_eigenvalue", "wall_s")
-
-
-def sweep(out: str, ps, **options) -> list[dict]:
-    run_dir = RunDirectory(out, params={"ps": list(ps), **options})
-    rows, profiles = [], {}
-    with History(run_dir.file("sweep.csv")) as table:
-        for p in ps:
-            summary = run(str(run_dir.file(f"p{p:g}")), p=p, **options)
-            row = {"p": p, **{k: summary.get(k, math.nan) for k in SWEEP_KEYS}}
-            table.append(row)
-            rows.append(row)
-            profiles[p] = np.loadtxt(run_dir.file(f"p{p:g}") / "profile_end.csv", delimiter=",", skiprows=1)
-    plot(profiles, run_dir.file("profiles.png"))
-    return rows
+def tube_row(summary: dict) -> dict:
+    """One line of a sweep table."""
+    keys = ("found", "k_critical", "k_at_scan_limit", "mu_critical", "penetration_depth", "mu_end",
+            "head_flare_end", "profile_curvature_end", "lowest_nonaxisymmetric_eigenvalue", "wall_s")
+    return {k: summary.get(k, math.nan) for k in keys}
 
 
 def plot(profiles: dict, path) -> None:
@@ -164,22 +153,13 @@ def plot(profiles: dict, path) -> None:
 
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_tube", quick="coarse section, k <= 12")
-    parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
-    parser.add_argument("--sweep", type=float, nargs="+", help="run these exponents p instead of --p")
-    parser.add_argument("--t", type=float, default=0.02, help="wall thickness / inner radius")
+    add_grading_options(parser, t=0.02, t_help="wall thickness / inner radius", maxh=0.05, kmax=20)
     parser.add_argument("--L", type=float, default=2.0, help="height / inner radius")
-    parser.add_argument("--maxh", type=float, default=0.05, help="cell size along z")
-    parser.add_argument("--order", type=int, default=3)
-    parser.add_argument("--mu0", type=float, default=-1.0, help="starting chemical potential")
-    parser.add_argument("--kmax", type=int, default=20, help="largest wave number scanned")
     args = parser.parse_args(argv)
     options = dict(t=args.t, L=args.L, maxh=args.maxh, order=args.order, mu0=args.mu0, kmax=args.kmax,
                    quick=quick_run(args))
     if args.sweep:
-        rows = sweep(args.out, args.sweep, **options)
-        for row in rows:
-            print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
-        return {"sweep": rows}
+        return {"sweep": sweep(args.out, args.sweep, run_one=run, row=tube_row, draw=plot, **options)}
     summary = run(args.out, p=args.p, **options)
     print(summary)
     return summary
