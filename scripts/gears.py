@@ -42,6 +42,7 @@ import geometries as geo  # noqa: E402
 from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
 from ngsgel.continuation import _Corrector, follow_path  # noqa: E402
 from ngsgel.film_tube import FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset  # noqa: E402
+from ngsgel.newton import NewtonError  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
 from ngsgel.stability import free_matrix, load_rate, mode_function, negative_count, spectrum  # noqa: E402
@@ -309,17 +310,30 @@ def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: f
     state, mu, mode = critical
     p = model.problem
     thickness = model.tube.tfi if record["mode_film"] == "inner" else model.tube.tfo
-    scale = film_amplitude * thickness / record["mode_film_amplitude"]
     dof = pin_vertex_component(p, point=phase_points(model)[record["mode_film"]], component=1)
     free = p.free_mask
     phi = mode.vec.FV().NumPy()[free]
-    guess = state + scale * mode.vec.FV().NumPy()
-    guess[dof] = 0.0  # zero up to round-off already (axisymmetric state, mirror-symmetric mode)
     span = abs(model.mu_end - model.tube.mu0)
     atol = 1e-10 * span * float(np.linalg.norm(load_rate(p, p.mu).residual))
-    corrector = _Corrector(p, p.mu, atol=atol, maxit=30)
-    result = corrector.solve((guess, mu), (state[free], mu), (phi / (phi @ phi), 0.0), scale)
+    corrector = _Corrector(p, p.mu, atol=atol, maxit=15)
+    # the corrector has no Armijo line search: from a guess too far out on the branch it can
+    # wander (Efo/Es = 1 and 8.8 at 0.25 t_f: residual 1.6e-3 and 5.6e-3 after 30 iterations);
+    # then the amplitude is halved, at most three times; every failure is recorded
+    failures = []
+    for attempt in range(4):
+        amplitude = film_amplitude / 2**attempt
+        scale = amplitude * thickness / record["mode_film_amplitude"]
+        guess = state + scale * mode.vec.FV().NumPy()
+        guess[dof] = 0.0  # zero up to round-off already (axisymmetric state, mirror-symmetric mode)
+        try:
+            result = corrector.solve((guess, mu), (state[free], mu), (phi / (phi @ phi), 0.0), scale)
+            break
+        except NewtonError as err:
+            failures.append({"film_amplitude": amplitude, "message": str(err)})
+    else:
+        raise RuntimeError(f"no buckled state found along the critical mode: {failures}")
     return {"dof": dof, "iterations": result.iterations, "mu": p.mu.Get(), "atol": atol,
+            "film_amplitude": amplitude, "failed_attempts": failures,
             "mu_past_onset_fraction": (p.mu.Get() - mu) / (model.mu_end - model.tube.mu0)}
 
 
@@ -421,7 +435,7 @@ def pin_reaction(p, dof: int) -> float:
 
 def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, progress=None,
                quick: bool = False, post_buckling: bool = True, path_step: float = 1 / 1000,
-               path_max_step: float = 1 / 4) -> dict:
+               path_max_step: float = 1 / 4, switch_amplitude: float = 0.25) -> dict:
     run = RunDirectory(out, params={"scene": asdict(scene), "resolution": asdict(res), "Es": ES, "Nv": NV,
                                     "chi": CHI, "Ri": RI, "Ro": RO, "teeth_threshold": threshold})
     start = time.perf_counter()
@@ -438,7 +452,7 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
         summary["onset_seconds"] = time.perf_counter() - start
         p = model.problem
         if record is not None and post_buckling:
-            switched = switch_branch(model, critical, record)
+            switched = switch_branch(model, critical, record, film_amplitude=switch_amplitude)
             dof = switched["dof"]
             summary["switch"] = switched
             if switched["mu_past_onset_fraction"] <= 0:
@@ -587,6 +601,8 @@ def _main(argv=None):
     parser.add_argument("--onset-only", action="store_true",
                         help="stop after the located onset (no post-buckling path)")
     parser.add_argument("--sweep", choices=("efo", "convergence"), default=None)
+    parser.add_argument("--switch-amplitude", type=float, default=0.25,
+                        help="amplitude of the first buckled state, in thicknesses of the buckling film")
     parser.add_argument("--threads", type=int, default=1,
                         help="NGSolve threads (1: on the shared 2-core machine, load average ~9, one thread "
                              "was 2x faster for the 2D solves and 30x for the radial 1D analysis)")
@@ -601,13 +617,15 @@ def _main(argv=None):
     check_resolution(res)
     if not 0 < args.teeth_threshold < 100:
         raise ValueError(f"teeth-threshold must lie in (0, 100), got {args.teeth_threshold!r}")
+    if not 0 < args.switch_amplitude <= 10:
+        raise ValueError(f"switch-amplitude must lie in (0, 10], got {args.switch_amplitude!r}")
     if not isinstance(args.threads, int) or args.threads < 1:
         raise ValueError(f"threads must be a positive integer, got {args.threads!r}")
     ngs.SetNumThreads(args.threads)
     progress = Progress("gears")
     if args.sweep is None:
         summary = run_single(scene, res, args.out, threshold=args.teeth_threshold, progress=progress,
-                             quick=quick, post_buckling=not args.onset_only)
+                             quick=quick, post_buckling=not args.onset_only, switch_amplitude=args.switch_amplitude)
         print(json.dumps({k: summary.get(k) for k in ("onset", "final", "seconds")}, indent=1, default=str))
         return summary
     run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep})
