@@ -231,31 +231,34 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
             hi = point
         else:
             lo = point
-    # the critical pair: the two lowest eigenvalues on the stable side of the bracket (the next
-    # to cross; on the unstable side several pairs of neighbouring wave numbers can already be
-    # negative, and the most negative need not be the first that crossed). A ring's pair is cos
-    # and sin (equal eigenvalues: the split is recorded); the soft global mode stays higher.
-    # The mode is their combination that is mirror-symmetric about the x axis (a crest or trough
-    # at angle 0), see ``switch_branch``.
-    p.restore_state(lo[1])
-    p.mu.Set(lo[0])
-    spec = spectrum(p, count=2)
-    phi = mirror_symmetric_mode(model, spec.modes[:, :2])
+    # the critical pair: the two most negative eigenvalues on the unstable side of the bracket
+    # (all negative ones are computed). Not the two lowest on the stable side: the crossing pair
+    # falls steeply and can still lie above the soft global mode there (Efo/Es = 1 and 8.8: the
+    # two lowest were the global mode and one member of the pair, split 3.5 and 0.87, and the
+    # mixed mode broke the branch switch). A ring's pair is cos and sin (equal eigenvalues: the
+    # split is recorded and must be small). The mode is their combination that is
+    # mirror-symmetric about the x axis (a crest or trough at angle 0), see ``switch_branch``.
     p.restore_state(hi[1])
     p.mu.Set(hi[0])
     negative_after = negative()
+    spec = spectrum(p, count=max(2, negative_after))
+    split = abs(float(spec.eigenvalues[1] - spec.eigenvalues[0])) / abs(float(spec.eigenvalues[0]))
+    if split > 1e-6:
+        raise RuntimeError(f"the two most negative eigenvalues past the onset are not a cos/sin pair "
+                           f"(eigenvalues {spec.eigenvalues}, relative split {split:.2e})")
+    phi = mirror_symmetric_mode(model, spec.modes[:, :2])
     mode = mode_function(p, phi)
     qoi = {k: f() for k, f in model.qoi().items()}
     mode_waves = {film: model.waves(mode, film) for film in ("inner", "outer")}
     located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
     record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": negative_after,
-              "eigenvalues_before": [float(v) for v in spec.eigenvalues],
+              "eigenvalues_after": [float(v) for v in spec.eigenvalues],
               "volume_fraction_cr": qoi["volume_fraction"],
               "hoop_inner_cr": qoi["hoop_inner"], "hoop_outer_cr": qoi["hoop_outer"],
               "mode_k_inner": mode_waves["inner"]["k"], "mode_k_outer": mode_waves["outer"]["k"],
               "mode_amplitude_ratio_inner_outer": mode_waves["inner"]["amplitude"] / mode_waves["outer"]["amplitude"],
               "mode_film": located, "mode_k": mode_waves[located]["k"],
-              "pair_eigenvalue_split": abs(float(spec.eigenvalues[1] - spec.eigenvalues[0])) / abs(float(spec.eigenvalues[0])),
+              "pair_eigenvalue_split": split,
               "mode_film_amplitude": mode_waves[located]["amplitude"]}
     if history is not None:
         history.append({"step": "onset", "parameter": record["mu_cr"], **qoi, "negative": negative_after,
