@@ -2,12 +2,16 @@
 
 Problem: a 3D gel block bonded at its base (order 2), swelling in a 10-step ramp of mu, at two
 sizes, plus a thin plate. The baseline is what an NGSolve user writes: the same energy form,
-``ngsolve.solvers.Newton`` from the previous solution at every step, sparse Cholesky, under
-TaskManager. Printed: unknowns, time per Newton iteration split into assembly, factorisation and
-solve, time per load step, iterations, the difference of the end states, peak memory, and the
-ratios ngsgel / baseline (medians of ``--repeat`` runs).
+``NewtonSolver`` from the previous solution at every step, sparse Cholesky, under TaskManager.
+ngsgel runs its ``ramp`` twice: as it is, and with ``reuse_factorisation`` (chord steps).
+Printed per case: unknowns, one iteration split into assembly, factorisation, solve, residual
+and admissibility check, iterations per step, and the ratios ngsgel / baseline as medians of
+``--repeat`` interleaved runs: the ramp time (if the baseline fails, NaN, on the steps it
+survived, and ngsgel's whole ramp over the baseline's time to its failure as a bound), and the
+most expensive ngsgel Newton iteration over the median baseline iteration. docs/benchmarks.md
+has the numbers.
 
-    python scripts/bench_newton.py --out results/bench_newton [--quick] [--repeat 3]
+    python scripts/bench_newton.py --out results/bench_newton [--quick] [--repeat 3] [--cases block-30k]
 """
 
 from __future__ import annotations
