@@ -289,7 +289,8 @@ def mirror_symmetric_mode(model: GearModel, pair: np.ndarray) -> np.ndarray:
     return pair @ (np.array([v[1], -v[0]]) / np.linalg.norm(v))
 
 
-def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: float = 0.25) -> dict:
+def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: float = 0.25,
+                  path_tol: float = 1e-10) -> dict:
     """Converge onto the buckled branch at a prescribed amplitude of the critical mode: the state
     is the located critical state plus ``s`` times the mode plus a correction orthogonal to the
     mode, ``mu`` is an unknown (bordered Newton, the driver's branch-switch corrector), ``s`` such
@@ -309,6 +310,8 @@ def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: f
     is the mirror-symmetric member of the pair, the buckled states stay mirror-symmetric and the
     pin carries no load in them (its reaction is recorded along the path). Stability checks on
     the pinned branch miss instabilities that are odd about the x axis.
+    ``path_tol``: absolute residual floor of every solve on the branch, relative to the load
+    scale ``span |dR/dmu|`` (the round-off floor is ~1e-13 of it).
     Returns the pinned dof, the Newton record and the ``mu`` of the first buckled state."""
     state, mu, mode = critical
     p = model.problem
@@ -317,7 +320,7 @@ def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: f
     free = p.free_mask
     phi = mode.vec.FV().NumPy()[free]
     span = abs(model.mu_end - model.tube.mu0)
-    atol = 1e-10 * span * float(np.linalg.norm(load_rate(p, p.mu).residual))
+    atol = path_tol * span * float(np.linalg.norm(load_rate(p, p.mu).residual))
     corrector = _Corrector(p, p.mu, atol=atol, maxit=15)
     # the corrector has no Armijo line search: from a guess too far out on the branch it can
     # wander (Efo/Es = 1 and 8.8 at 0.25 t_f: residual 1.6e-3 and 5.6e-3 after 30 iterations);
@@ -438,7 +441,7 @@ def pin_reaction(p, dof: int) -> float:
 
 def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, progress=None,
                quick: bool = False, post_buckling: bool = True, path_step: float = 1 / 1000,
-               path_max_step: float = 1 / 4, switch_amplitude: float = 0.25) -> dict:
+               path_max_step: float = 1 / 4, switch_amplitude: float = 0.25, path_tol: float = 1e-10) -> dict:
     run = RunDirectory(out, params={"scene": asdict(scene), "resolution": asdict(res), "Es": ES, "Nv": NV,
                                     "chi": CHI, "Ri": RI, "Ro": RO, "teeth_threshold": threshold})
     start = time.perf_counter()
@@ -455,7 +458,7 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
         summary["onset_seconds"] = time.perf_counter() - start
         p = model.problem
         if record is not None and post_buckling:
-            switched = switch_branch(model, critical, record, film_amplitude=switch_amplitude)
+            switched = switch_branch(model, critical, record, film_amplitude=switch_amplitude, path_tol=path_tol)
             dof = switched["dof"]
             summary["switch"] = switched
             if switched["mu_past_onset_fraction"] <= 0:
