@@ -15,6 +15,11 @@ penetration, self-crossings, creases and spacing of the mirrored profile), the c
 (first step with the faces in contact) and the state there (``summary.json``), surface profiles
 and figures, and a VTK series.
 
+Surface energy of the gel-solvent interface (``--surface-tension gamma/(G H)``, default
+``SURFACE_TENSION`` = 0.02; 0 = the sharp-interface model) adds ``gamma |F' t|`` on the top
+(``ngsgel.surface``): the elastocapillary length ``gamma/G`` regularises the crease tip, and the
+quasi-static crease threshold converges once ``top_h`` is well below it (docs/creases.md).
+
 ``--equilibrium`` runs the quasi-static counterpart instead (``mu`` homogeneous, raised
 slowly): the linear (wrinkling) threshold of the flat layer from the exact inertia of the tangent
 at the closed-form homogeneous states (bisection in ``mu``), on a list of meshes, and the crease
@@ -302,6 +307,8 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
     message = "reached t_end"
     with ngs.TaskManager() if setup.threads else _nothing():
         try:
+            # dt_min: snaps (early skin wrinkles, crease closing) are carried by the stabiliser with
+            # steps down to ~1e-9; 1e-4 ramp stopped the top_h = 0.01 run with surface energy
             march(prob, t_end, dt_start=setup.ramp / 10, dt_max=dt_max, dt_min=setup.ramp * 1e-7,
                   output_times=outputs, on_step=on_step)
         except _Stop:

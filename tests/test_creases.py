@@ -133,6 +133,14 @@ def test_self_intersections_counts_a_crossing_fold():
     assert self_intersections(np.array([[0, 0], [1, 0], [2, 0.1], [3, 0]])) == 0
 
 
+def test_fold_estimate_extrapolates_the_vanishing_eigenvalue():
+    """Near a fold lambda ~ sqrt(mu_c - mu): two states on lambda = sqrt(mu_c - mu) give mu_c."""
+    mu_c = -0.004
+    path = [{"mu": m, "lowest_eigenvalue": np.sqrt(mu_c - m)} for m in (-0.01, -0.006)]
+    assert creases.fold_estimate(path) == pytest.approx(mu_c, rel=1e-12)
+    assert creases.fold_estimate(path[::-1]) is None  # eigenvalue growing: no fold ahead
+
+
 def test_bad_input_raises_before_work():
     with pytest.raises(ValueError, match="amplitude"):
         creases.Setup(amplitude=0.7).check()
