@@ -155,9 +155,11 @@ class ScannedPath:
 
 def scan_path(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
               step: float, ks: list[int], length: float, history: History, progress,
-              observe: Callable[[], dict], end_profile: Callable[[], np.ndarray] | None = None) -> ScannedPath:
-    """Follow the axisymmetric path of a graded gel in its soft stretch to ``target``: the driver
-    locates axisymmetric bifurcations (a bowl leaving the flat state) and switches onto the new
+              observe: Callable[[], dict], end_profile: Callable[[], np.ndarray] | None = None,
+              method: str = "arclength") -> ScannedPath:
+    """Follow the axisymmetric path of a graded gel in its soft stretch to ``target`` (arclength by
+    default: past a pitchfork the bowl's rise grows like the square root of the load, which a
+    natural-parameter run crosses only in tiny steps): the driver locates axisymmetric bifurcations (a bowl leaving the flat state) and switches onto the new
     branch along the critical mode, ``0.1 length`` deep; every state is scanned over the wave
     numbers ``ks`` (non-axisymmetric, rigid motions excluded) and recorded in ``history`` with the
     quantities ``observe()`` returns. At the first negative eigenvalue the run stops and the
@@ -182,8 +184,8 @@ def scan_path(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[flo
         return False
 
     axisymmetric = StabilityOptions(eigenvalues=2, switch=True, amplitude=0.1, length=length, tol=1e-6)
-    path = follow_path(prob, stretch, method="natural", step=step, max_step=step, target=target,
-                       stop=unstable, stability=axisymmetric)
+    path = follow_path(prob, stretch, method=method, step=step, max_step=step, target=target,
+                       stop=unstable, stability=axisymmetric, max_steps=1000)
     end_parameter = stretch.Get()
     profile = end_profile() if end_profile is not None else None
     onset = None
