@@ -155,8 +155,10 @@ def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_tube", quick="coarse section, k <= 12")
     add_grading_options(parser, t=0.02, t_help="wall thickness / inner radius", maxh=0.05, kmax=20)
     parser.add_argument("--L", type=float, default=2.0, help="height / inner radius")
+    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the base")
+    parser.add_argument("--nL", type=float, default=1e-3, help="Nv at the head")
     args = parser.parse_args(argv)
-    options = dict(t=args.t, L=args.L, maxh=args.maxh, order=args.order, mu0=args.mu0, kmax=args.kmax,
+    options = dict(n0=args.n0, nL=args.nL, t=args.t, L=args.L, maxh=args.maxh, order=args.order, mu0=args.mu0, kmax=args.kmax,
                    quick=quick_run(args))
     if args.sweep:
         return {"sweep": sweep(args.out, args.sweep, run_one=run, row=tube_row, draw=plot, **options)}
