@@ -38,7 +38,7 @@ from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_
 from .stepping import RampError, ramp
 
 __all__ = ["StabilityOptions", "Stabilization", "PathPoint", "Event", "Checkpoint", "PathResult",
-           "ContinuationError", "follow_path"]
+           "ContinuationError", "BorderedCorrector", "follow_path"]
 
 Method = Literal["natural", "arclength"]
 
@@ -173,10 +173,12 @@ class ContinuationError(RuntimeError):
 
 
 # --------------------------------------------------------------------------- corrector
-class _Corrector:
+class BorderedCorrector:
     """Newton on ``R(x, lambda) = 0`` plus one linear constraint
     ``c_x . (x - o_x) + c_l (lambda - o_l) = s`` (free dofs), by bordering: two solves with the
-    tangent per iteration. Constrained dofs follow their prescribed values at every iterate."""
+    tangent per iteration. Constrained dofs follow their prescribed values at every iterate.
+    The arclength corrector and the branch switch use it; with the constraint on a mode's
+    amplitude it finds a state at a prescribed distance along that mode (and its load)."""
 
     def __init__(self, problem, parameter: ngs.Parameter, *, rtol: float = 1e-10, atol: float = 0.0,
                  xtol: float = 1e-13, maxit: int = 20, min_step: float = 2.0**-10):
@@ -620,7 +622,7 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
         return solve_at
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
-        corrector = _Corrector(problem, parameter)
+        corrector = BorderedCorrector(problem, parameter)
         free = problem.free_mask
         return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
             (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s))
@@ -665,7 +667,7 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
                max_step, direction, scale, grow, easy, hard, newton_options) -> PathResult:
     problem, parameter = driver.problem, driver.parameter
     free = problem.free_mask
-    corrector = _Corrector(problem, parameter, **{k: v for k, v in newton_options.items()
+    corrector = BorderedCorrector(problem, parameter, **{k: v for k, v in newton_options.items()
                                                   if k in ("rtol", "atol", "xtol", "maxit")})
 
     def path_tangent() -> np.ndarray:

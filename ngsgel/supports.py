@@ -36,10 +36,11 @@ import math
 import numpy as np
 import ngsolve as ngs
 
-__all__ = ["pin_rigid_modes", "pin_vertex_component"]
+__all__ = ["pin_rigid_modes", "pin_vertex_component", "nearest_vertex"]
 
 
-def _nearest_vertex(mesh: ngs.Mesh, point: np.ndarray) -> tuple[int, float]:
+def nearest_vertex(mesh: ngs.Mesh, point: np.ndarray) -> tuple[int, float]:
+    """Number of the mesh vertex nearest to ``point`` and its distance."""
     coords = np.array([v.point for v in mesh.vertices])
     distance = np.sum((coords - point) ** 2, axis=1)
     index = int(np.argmin(distance))
@@ -69,7 +70,7 @@ def pin_rigid_modes(problem, *, radius: float, center=(0.0, 0.0), tolerance: flo
     vertices = []
     for direction, component in (((1.0, 0.0), 1), ((0.0, 1.0), 0), ((-1.0, 0.0), 1)):
         target = c + radius * np.array(direction)
-        vertex, distance = _nearest_vertex(mesh, target)
+        vertex, distance = nearest_vertex(mesh, target)
         if distance > tolerance:
             raise ValueError(f"no mesh vertex within {tolerance:g} of {tuple(target)} (nearest at distance "
                              f"{distance:g}): choose a radius with vertices at the angles 0, pi/2, pi")
@@ -95,7 +96,7 @@ def pin_vertex_component(problem, *, point, component: int, tolerance: float = 1
     p = np.asarray(point, dtype=float)
     if p.shape != (2,) or not np.all(np.isfinite(p)):
         raise ValueError(f"point must be two finite coordinates, got {point!r}")
-    vertex, distance = _nearest_vertex(mesh, p)
+    vertex, distance = nearest_vertex(mesh, p)
     if distance > tolerance:
         raise ValueError(f"no mesh vertex within {tolerance:g} of {tuple(p)} (nearest at distance {distance:g})")
     space = problem.space

@@ -40,14 +40,14 @@ import ngsolve as ngs  # noqa: E402
 
 import geometries as geo  # noqa: E402
 from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
-from ngsgel.continuation import _Corrector, follow_path  # noqa: E402
+from ngsgel.continuation import BorderedCorrector, follow_path  # noqa: E402
 from ngsgel.film_tube import FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset  # noqa: E402
 from ngsgel.newton import NewtonError  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
 from ngsgel.stability import free_matrix, load_rate, mode_function, negative_count, spectrum  # noqa: E402
 from ngsgel.stepping import ramp  # noqa: E402
-from ngsgel.supports import _nearest_vertex, pin_rigid_modes, pin_vertex_component  # noqa: E402
+from ngsgel.supports import nearest_vertex, pin_rigid_modes, pin_vertex_component  # noqa: E402
 
 NV, CHI = 1e-3, 0.5
 ES = 3 * NV  # the thesis's Es = 3NkT, in units of kT/v
@@ -272,7 +272,7 @@ def phase_points(model: GearModel) -> dict:
 
 
 def _y_dof(model: GearModel, point) -> int:
-    vertex, distance = _nearest_vertex(model.mesh, np.asarray(point, dtype=float))
+    vertex, distance = nearest_vertex(model.mesh, np.asarray(point, dtype=float))
     if distance > 1e-6:
         raise ValueError(f"no mesh vertex at {point}")
     return model.problem.space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[1]
@@ -321,7 +321,7 @@ def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: f
     phi = mode.vec.FV().NumPy()[free]
     span = abs(model.mu_end - model.tube.mu0)
     atol = path_tol * span * float(np.linalg.norm(load_rate(p, p.mu).residual))
-    corrector = _Corrector(p, p.mu, atol=atol, maxit=15)
+    corrector = BorderedCorrector(p, p.mu, atol=atol, maxit=15)
     # the corrector has no Armijo line search: from a guess too far out on the branch it can
     # wander (Efo/Es = 1 and 8.8 at 0.25 t_f: residual 1.6e-3 and 5.6e-3 after 30 iterations);
     # then the amplitude is halved, at most three times; every failure is recorded
