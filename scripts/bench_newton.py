@@ -167,12 +167,15 @@ VARIANTS = {"ngsgel": {}, "ngsgel-reuse": {"reuse_factorisation": True}}
 
 
 def main(argv=None) -> None:
+    global STEPS
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="results/bench_newton")
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--cases", default=None, help="comma-separated subset of the cases")
+    parser.add_argument("--steps", type=int, default=None, help=f"load steps of the ramp (default {STEPS})")
     args = parser.parse_args(argv)
+    STEPS = args.steps or STEPS
     quick = args.quick or bool(os.environ.get("CI"))
     chosen = cases(quick)
     if args.cases:
