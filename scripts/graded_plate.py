@@ -280,7 +280,8 @@ def sweep(out: str, ps, *, run_one: Callable[..., dict] | None = None, row: Call
             table.append(rows[-1])
             profiles[p] = np.loadtxt(folder / "profile_end.csv", delimiter=",", skiprows=1)
     if draw is None:
-        plot_profiles(profiles, run_dir.file("profiles.png"), title=f"end profiles, {options}")
+        plot_profiles(profiles, run_dir.file("profiles.png"),
+                      title=", ".join(f"{k} = {options[k]:g}" for k in ("n0", "nR", "t") if k in options))
     else:
         draw(profiles, run_dir.file("profiles.png"))
     for line in rows:
