@@ -250,10 +250,27 @@ class EquilibriumProblem(GelBody):
         self.gf = ngs.GridFunction(V, name="displacement")
         self._scratch = ngs.GridFunction(V)
         self._target = ngs.GridFunction(V)
-        self.free_mask = np.array(list(V.FreeDofs()), dtype=bool)
-        self._solver = LinearSolver(V.FreeDofs(), inverse=self.inverse)
+        self._renew_free_dofs()
         self._indicator = self.margin_indicator(self._scratch)
         self._indicator_order = 2 * self.order + 2
+
+    def _renew_free_dofs(self) -> None:
+        V = self.space
+        self.free_mask = np.array(list(V.FreeDofs()), dtype=bool)
+        self._solver = LinearSolver(V.FreeDofs(), inverse=self.inverse)
+
+    def fix_dof(self, dof: int) -> None:
+        """Fix one degree of freedom (e.g. a vertex's displacement component, see
+        ``ngsgel.supports.vertex_dof``) at zero like ``fix``, also after the problem has been built
+        and solved (the next solve moves it to zero; the free-dof mask and the solver are renewed)."""
+        free = self.space.FreeDofs()
+        if not 0 <= dof < len(free):
+            raise ValueError(f"dof must be in [0, {len(free)}), got {dof!r}")
+        if not free[dof]:
+            raise ValueError(f"dof {dof} is already fixed")
+        free.Clear(dof)
+        if self._form is not None:
+            self._renew_free_dofs()
 
     @property
     def displacement(self) -> ngs.GridFunction:

@@ -36,7 +36,7 @@ import math
 import numpy as np
 import ngsolve as ngs
 
-__all__ = ["pin_rigid_modes", "pin_vertex_component", "nearest_vertex"]
+__all__ = ["pin_rigid_modes", "pin_vertex_component", "vertex_dof", "nearest_vertex"]
 
 
 def nearest_vertex(mesh: ngs.Mesh, point: np.ndarray) -> tuple[int, float]:
@@ -79,10 +79,24 @@ def pin_rigid_modes(problem, *, radius: float, center=(0.0, 0.0), tolerance: flo
     return vertices
 
 
+def vertex_dof(problem, *, point, component: int, tolerance: float = 1e-6) -> int:
+    """Number of the dof of displacement ``component`` at the vertex at ``point`` (within
+    ``tolerance``) in ``problem.space``."""
+    p = np.asarray(point, dtype=float)
+    if p.shape != (problem.mesh.dim,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"point must be {problem.mesh.dim} finite coordinates, got {point!r}")
+    if component not in range(problem.mesh.dim):
+        raise ValueError(f"component must be in 0 .. {problem.mesh.dim - 1}, got {component!r}")
+    vertex, distance = nearest_vertex(problem.mesh, p)
+    if distance > tolerance:
+        raise ValueError(f"no mesh vertex within {tolerance:g} of {tuple(p)} (nearest at distance {distance:g})")
+    return problem.space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[component]
+
+
 def pin_vertex_component(problem, *, point, component: int, tolerance: float = 1e-6) -> int:
     """Fix displacement ``component`` (0: x, 1: y) of the vertex at ``point`` (within
-    ``tolerance``), also after the problem has been solved: the free-dof mask and the problem's
-    cached factorisation are renewed. Returns the dof number.
+    ``tolerance``), also after the problem has been solved (``EquilibriumProblem.fix_dof``).
+    Returns the dof number.
 
     Used to pin the phase of a wave pattern on a ring (``u_y = 0`` at a vertex on the x axis):
     on a rotationally symmetric body the rotation of a buckling pattern relative to the material
@@ -90,23 +104,6 @@ def pin_vertex_component(problem, *, point, component: int, tolerance: float = 1
     next one at the gears' buckled state), which stalls Newton. The pin carries no load in every
     state that is mirror-symmetric about the x axis (a periodic pattern with a crest or trough
     at angle 0); its reaction is the check."""
-    mesh = problem.mesh
-    if component not in (0, 1):
-        raise ValueError(f"component must be 0 or 1, got {component!r}")
-    p = np.asarray(point, dtype=float)
-    if p.shape != (2,) or not np.all(np.isfinite(p)):
-        raise ValueError(f"point must be two finite coordinates, got {point!r}")
-    vertex, distance = nearest_vertex(mesh, p)
-    if distance > tolerance:
-        raise ValueError(f"no mesh vertex within {tolerance:g} of {tuple(p)} (nearest at distance {distance:g})")
-    space = problem.space
-    dof = space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[component]
-    free = space.FreeDofs()
-    if not free[dof]:
-        raise ValueError(f"the {'xy'[component]} displacement of the vertex at {tuple(p)} is already fixed")
-    free.Clear(dof)
-    if getattr(problem, "_form", None) is not None:  # built: renew what was derived from the free dofs
-        from .newton import LinearSolver
-        problem.free_mask = np.array(list(space.FreeDofs()), dtype=bool)
-        problem._solver = LinearSolver(space.FreeDofs(), inverse=problem.inverse)
+    dof = vertex_dof(problem, point=point, component=component, tolerance=tolerance)
+    problem.fix_dof(dof)
     return dof

@@ -47,7 +47,7 @@ from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E4
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
 from ngsgel.stability import free_matrix, load_rate, mode_function, negative_count, spectrum  # noqa: E402
 from ngsgel.stepping import ramp  # noqa: E402
-from ngsgel.supports import nearest_vertex, pin_rigid_modes, pin_vertex_component  # noqa: E402
+from ngsgel.supports import pin_rigid_modes, pin_vertex_component, vertex_dof  # noqa: E402
 
 NV, CHI = 1e-3, 0.5
 ES = 3 * NV  # the thesis's Es = 3NkT, in units of kT/v
@@ -271,20 +271,13 @@ def phase_points(model: GearModel) -> dict:
     return {"inner": (RI - model.tube.tfi, 0.0), "outer": (RO + model.tube.tfo, 0.0)}
 
 
-def _y_dof(model: GearModel, point) -> int:
-    vertex, distance = nearest_vertex(model.mesh, np.asarray(point, dtype=float))
-    if distance > 1e-6:
-        raise ValueError(f"no mesh vertex at {point}")
-    return model.problem.space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[1]
-
-
 def mirror_symmetric_mode(model: GearModel, pair: np.ndarray) -> np.ndarray:
     """The combination of a degenerate pair of ring modes (free-dof columns) that is symmetric
     about the x axis: zero ``u_y`` at the films' free-surface vertices at angle 0 (the mesh is
     mirror-symmetric about the x axis, so the pair splits into an even and an odd mode; the
     combination is taken at the vertex where the odd part is largest)."""
     free_idx = np.flatnonzero(model.problem.free_mask)
-    rows = [pair[np.searchsorted(free_idx, _y_dof(model, point)), :] for point in phase_points(model).values()]
+    rows = [pair[np.searchsorted(free_idx, vertex_dof(model.problem, point=point, component=1)), :] for point in phase_points(model).values()]
     v = max(rows, key=np.linalg.norm)
     return pair @ (np.array([v[1], -v[0]]) / np.linalg.norm(v))
 

@@ -46,7 +46,8 @@ from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
 from ngsgel.continuation import PathResult, StabilityOptions
 from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability
-from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.supports import vertex_dof
 
 CHI = 0.5
 
@@ -88,10 +89,7 @@ def build(*, n0: float, nR: float, p: float, t: float, maxh: float, layers: int 
     if imperfection:
         soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
         prob.add_traction("top", (imperfection * soft.youngs_modulus(lam0) * t * ngs.x, 0.0))
-    space = prob.space
-    coords = np.array([v.point for v in mesh.vertices])
-    centre = int(np.argmin(np.sum(coords**2, axis=1)))
-    space.FreeDofs().Clear(space.GetDofNrs(ngs.NodeId(ngs.VERTEX, centre))[1])
+    prob.fix_dof(vertex_dof(prob, point=(0.0, 0.0), component=1))
     prob.solve()
     return prob, stretch
 
@@ -156,14 +154,14 @@ class ScannedPath:
 def scan_path(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
               step: float, ks: list[int], length: float, history: History, progress,
               observe: Callable[[], dict], end_profile: Callable[[], np.ndarray] | None = None,
-              method: str = "arclength") -> ScannedPath:
+              method: str = "arclength", vtk: VTKSeries | None = None) -> ScannedPath:
     """Follow the axisymmetric path of a graded gel in its soft stretch to ``target`` (arclength by
     default: past a pitchfork the bowl's rise grows like the square root of the load, which a
     natural-parameter run crosses only in tiny steps): the driver locates axisymmetric bifurcations (a bowl leaving the flat state) and switches onto the new
     branch along the critical mode, ``0.1 length`` deep; every state is scanned over the wave
     numbers ``ks`` (non-axisymmetric, rigid motions excluded) and recorded in ``history`` with the
     quantities ``observe()`` returns. At the first negative eigenvalue the run stops and the
-    onset is bisected from the last stable state."""
+    onset is bisected from the last stable state. ``vtk`` gets every state of the path."""
     hs = HarmonicStability(prob)
     last_stable: dict = {"s": stretch.Get(), "state": prob.save_state()}
     lowest_seen = [math.inf]
@@ -185,7 +183,7 @@ def scan_path(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[flo
 
     axisymmetric = StabilityOptions(eigenvalues=2, switch=True, amplitude=0.1, length=length, tol=1e-6)
     path = follow_path(prob, stretch, method=method, step=step, max_step=step, target=target,
-                       stop=unstable, stability=axisymmetric, max_steps=1000)
+                       stop=unstable, stability=axisymmetric, max_steps=1000, vtk=vtk)
     end_parameter = stretch.Get()
     profile = end_profile() if end_profile is not None else None
     onset = None
@@ -226,7 +224,8 @@ def run(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: flo
         scanned = scan_path(prob, stretch, nv=(n0, nR), target=stretch_end, step=step, ks=ks, length=t,
                             history=history, progress=progress,
                             observe=lambda: {"rim_rise": prob.displacement(rim)[1] - prob.displacement(centre)[1]},
-                            end_profile=lambda: midplane_profile(prob, radii))
+                            end_profile=lambda: midplane_profile(prob, radii),
+                            vtk=VTKSeries(prob.mesh, prob.fields(), run_dir.file("section")))
     path, onset, hs = scanned.path, scanned.onset, scanned.stability
     profile = scanned.end_profile
     np.savetxt(run_dir.file("profile_end.csv"), profile, delimiter=",", header="R,r,z", comments="")

@@ -30,7 +30,7 @@ from geometries import tube_section
 from geometries.fields import axial_grading
 from graded_plate import CHI, add_grading_options, mismatch_strain, scan_path, soft_stretch_load, sweep
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
-from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 
 RI = 1.0
 
@@ -97,7 +97,8 @@ def run(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float = 10.0, t: flo
     with History(run_dir.file("path.csv")) as history:
         scanned = scan_path(prob, stretch, nv=(n0, nL), target=stretch_end, step=step, ks=ks, length=t,
                             history=history, progress=progress, observe=flare,
-                            end_profile=lambda: midwall_profile(prob, t, heights))
+                            end_profile=lambda: midwall_profile(prob, t, heights),
+                            vtk=VTKSeries(prob.mesh, prob.fields(), run_dir.file("section")))
     profile = scanned.end_profile
     np.savetxt(run_dir.file("profile_end.csv"), profile, delimiter=",", header="Z,r,z", comments="")
     summary: dict = {"found": False, "mu_end": mismatch_strain(scanned.end_parameter, n0, nL)[0],

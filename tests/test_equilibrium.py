@@ -287,3 +287,29 @@ def test_bad_problem_input():
         prob.fix("left", "z")
     with pytest.raises(ValueError, match="order"):
         EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=2.0, order=0)
+
+
+def test_fix_dof_after_solve_fixes_it_at_zero_and_rejects_bad_dofs():
+    from ngsolve.meshes import MakeStructured2DMesh
+
+    from ngsgel.supports import vertex_dof
+
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    prob = EquilibriumProblem(MakeStructured2DMesh(nx=2, ny=2), kinematics=PlaneStrain(), materials=gel,
+                              lam0=gel.lam_free(-0.1), mu=-0.1)
+    prob.fix("bottom")
+    prob.mu.Set(-0.05)
+    prob.solve()
+    dof = vertex_dof(prob, point=(0.0, 1.0), component=0)
+    assert prob.state.FV().NumPy()[dof] < -1e-3  # the swelling top corner moves outwards
+    prob.fix_dof(dof)
+    assert not prob.free_mask[dof]
+    prob.mu.Set(-0.02)
+    prob.solve()
+    assert prob.state.FV().NumPy()[dof] == 0.0
+    with pytest.raises(ValueError, match="already fixed"):
+        prob.fix_dof(dof)
+    with pytest.raises(ValueError, match="dof must be in"):
+        prob.fix_dof(-1)
+    with pytest.raises(ValueError, match="no mesh vertex"):
+        vertex_dof(prob, point=(0.3, 0.3), component=0)

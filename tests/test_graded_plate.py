@@ -21,7 +21,7 @@ def test_softer_edge_buckles_non_axisymmetrically_with_compressive_hoop_stress_a
     profile = np.loadtxt(tmp_path / "onset_profile.csv", delimiter=",", skiprows=1)
     r, hoop = profile[:, 0], profile[:, 2]
     assert np.all(hoop[r < 0.4] > 0)  # the stiff centre is stretched by the swelling edge
-    for name in ("onset.png", "path.csv", "params.json"):
+    for name in ("onset.png", "path.csv", "params.json", "section.pvd", "profile_end.csv"):
         assert (tmp_path / name).stat().st_size > 0
     assert json.loads((tmp_path / "summary.json").read_text())["k_critical"] == summary["k_critical"]
 
