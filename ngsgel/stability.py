@@ -27,7 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 __all__ = ["Spectrum", "LoadRate", "BucklingResult", "free_matrix", "mass_matrix", "negative_count",
-           "spectrum", "load_rate", "mode_function", "load_projection", "linear_buckling",
+           "spectrum", "load_rate", "conjugate_force", "mode_function", "load_projection", "linear_buckling",
            "random_field", "seed_imperfection"]
 
 
@@ -155,6 +155,27 @@ def load_rate(problem, parameter: ngs.Parameter, *, x: ngs.BaseVector | None = N
         r_plus.data = (problem.tangent(x) if K is None else K) * move
         dR = dR + r_plus.FV().NumPy()
     return LoadRate(residual=dR[free].copy(), prescribed=dg)
+
+
+def conjugate_force(problem, parameter: ngs.Parameter, *, x: ngs.BaseVector | None = None) -> float:
+    """Generalised force work-conjugate to a prescribed-displacement ``parameter`` (e.g. the
+    indentation depth): ``dE/dlambda = r(x) . dg/dlambda``, ``r`` the full residual (at an
+    equilibrium, the reactions on the constrained dofs) and ``g`` the prescribed values. Exact for
+    values affine in the parameter (the rate is a difference over a unit step)."""
+    x = problem.state if x is None else x
+    lam = parameter.Get()
+    g_plus, g_minus, r = x.CreateVector(), x.CreateVector(), x.CreateVector()
+    try:
+        parameter.Set(lam + 0.5)
+        problem.prescribed(g_plus)
+        parameter.Set(lam - 0.5)
+        problem.prescribed(g_minus)
+    finally:
+        parameter.Set(lam)
+    problem.residual(x, r)
+    dg = g_plus.FV().NumPy() - g_minus.FV().NumPy()
+    dg[problem.free_mask] = 0.0
+    return float(np.dot(r.FV().NumPy(), dg))
 
 
 def mode_function(problem, vector: np.ndarray, *, name: str = "mode") -> ngs.GridFunction:

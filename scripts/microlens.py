@@ -1,0 +1,349 @@
+"""Hydrogel microlens under an apex load (thesis ch. 3, MODEL.md scene A): the load-depth path of
+the clamped cap with every event, the vertex count along it, the gel volume change and the fits
+of the thesis.
+
+The cap (base radius ``R = 1``, apex height ``H``, mid-surface radius ``r = (R^2 + H^2)/(2H)``,
+thickness ``t = 0.005 r``, ``Nv = 1e-3``, ``chi = 0.5``, ``mu = 0``, base clamped) is pushed at
+its apex under displacement control (an apex patch of radius ``--apex`` carries the prescribed
+displacement, the stand-in for the thesis's concentrated displacement). The path is followed by
+pseudo-arclength, so limit points in depth (snap-through under displacement control) are passed
+and the jump at fixed depth is measured on the path itself. Force ``F`` is the reaction
+work-conjugate to the depth (``ngsgel.stability.conjugate_force``), reported as ``F/(E0 t^2)``
+with the thesis's ``E0 = 3 Nv / lam0``; depth as ``d/H``.
+
+Models (``--model``):
+
+- ``axisymmetric``: the r-z section (vertical loads). At every state the second variation is
+  scanned over wave numbers ``k = 1 .. kmax`` (``ngsgel.harmonic``, exact for the 3D cap); the
+  first negative eigenvalue is bisected to the depth where the cap leaves the axisymmetric path
+  and its ``k`` (the number of vertices of the first polygonal state). Past that depth the
+  section follows the axisymmetric branch, now unstable: the ``k`` that are unstable there are
+  recorded but are not the post-buckled vertex counts.
+
+Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructed here):
+
+- inward, early: ``F/(E0 t^2) = C sqrt(d t)/r`` (the large-deflection point load of a thin
+  shell, ``F ~ E t^(5/2) d^(1/2) / r``; the seed reads "F/Et^2 = 0.42 sqrt(td)/r"), least squares
+  over ``d/H <= --fit-depth``; the thesis's ``C = 0.42``.
+- outward: ``F/(E0 t^2) = C [(1 + d/H) - (1 + d/H)^-2]`` (uniaxial tension of an incompressible
+  neo-Hookean solid, the form of the thesis's eq. 3-7); the coefficient is fitted.
+
+    python scripts/microlens.py --out results/microlens --H 0.1 --depth 1.0 [--quick]
+    python scripts/microlens.py --out results/microlens_out --H 0.2 --direction outward --depth 1.0
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import ngsolve as ngs  # noqa: E402
+
+from geometries import cap_section  # noqa: E402
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path  # noqa: E402
+from ngsgel.continuation import PathResult, StabilityOptions  # noqa: E402
+from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
+from ngsgel.stability import conjugate_force  # noqa: E402
+
+GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
+THICKNESS_RATIO = 0.005  # t / r
+DIRECTIONS = ("inward", "outward")
+
+
+@dataclass(frozen=True)
+class Indentation:
+    """``H`` apex height over base radius, ``direction`` of the apex displacement, final
+    ``depth`` in units of ``H``, ``mu`` of the bath."""
+
+    H: float
+    direction: str = "inward"
+    depth: float = 1.0
+    mu: float = 0.0
+
+    def __post_init__(self):
+        if not (isinstance(self.H, (int, float)) and 0 < self.H <= 1):
+            raise ValueError(f"H (apex height / base radius) must be in (0, 1], got {self.H!r}")
+        if self.direction not in DIRECTIONS:
+            raise ValueError(f"direction must be one of {DIRECTIONS} for the axisymmetric model, "
+                             f"got {self.direction!r}")
+        if not (isinstance(self.depth, (int, float)) and 0 < self.depth <= 3):
+            raise ValueError(f"depth (final depth / H) must be in (0, 3], got {self.depth!r}")
+        if not (isinstance(self.mu, (int, float)) and -1 <= self.mu <= 0):
+            raise ValueError(f"mu must be in [-1, 0], got {self.mu!r}")
+
+    @property
+    def r(self) -> float:
+        return (1 + self.H**2) / (2 * self.H)
+
+    @property
+    def t(self) -> float:
+        return THICKNESS_RATIO * self.r
+
+    @property
+    def sign(self) -> float:
+        """Sign of the prescribed vertical apex displacement."""
+        return -1.0 if self.direction == "inward" else 1.0
+
+
+@dataclass(frozen=True)
+class SectionResolution:
+    """Cell length ``maxh`` along the section, ``layers`` across the wall, element ``order``,
+    apex patch radius ``apex`` (cells of ``apex/4`` on it)."""
+
+    maxh: float = 0.01
+    layers: int = 2
+    order: int = 3
+    apex: float = 0.02
+
+    def __post_init__(self):
+        if not (0 < self.maxh <= 0.2):
+            raise ValueError(f"maxh must be in (0, 0.2], got {self.maxh!r}")
+        if not (isinstance(self.layers, int) and 1 <= self.layers <= 16):
+            raise ValueError(f"layers must be an integer in [1, 16], got {self.layers!r}")
+        if not (isinstance(self.order, int) and 1 <= self.order <= 6):
+            raise ValueError(f"order must be an integer in [1, 6], got {self.order!r}")
+        if not (0 < self.apex <= 0.2):
+            raise ValueError(f"apex (patch radius / R) must be in (0, 0.2], got {self.apex!r}")
+
+
+class AxisymmetricCap:
+    """The cap's r-z section under a prescribed vertical apex displacement ``sign * depth``."""
+
+    def __init__(self, case: Indentation, res: SectionResolution):
+        self.case = case
+        self.lam0 = GEL.lam_free(case.mu)
+        self.force_scale = GEL.youngs_modulus(self.lam0) * case.t**2
+        bundle = cap_section(H=case.H, t=case.t, maxh=res.maxh, layers=res.layers, apex_radius=res.apex,
+                             apex_maxh=min(res.maxh, res.apex / 4))
+        self.mesh = bundle.mesh
+        self.volume0 = bundle.exact_volume
+        self.depth = ngs.Parameter(0.0)
+        self.problem = EquilibriumProblem(self.mesh, kinematics=Axisymmetric(), materials=GEL, lam0=self.lam0,
+                                          mu=case.mu, order=res.order)
+        self.problem.fix("base")
+        self.problem.fix("axis", "r")
+        self.problem.prescribe("apex", "z", case.sign * self.depth)
+        self.harmonic = HarmonicStability(self.problem)
+
+    def force(self) -> float:
+        """``F/(E0 t^2)``: ``dE/d(depth)``, positive when the cap resists the prescribed motion."""
+        return conjugate_force(self.problem, self.depth) / self.force_scale
+
+    def volume_change(self) -> float:
+        """Gel volume over its value in the free-swollen, unloaded cap, minus one."""
+        p = self.problem
+        return p.integrate(ngs.Det(p.deformation_gradient(p.displacement))) / self.volume0 - 1.0
+
+
+class HarmonicMonitor:
+    """Lowest eigenvalue of each wave number ``1 .. kmax`` at the current state (rigid ``k = 1``
+    modes excluded), computed once per state for the path's quantities of interest."""
+
+    def __init__(self, cap: AxisymmetricCap, kmax: int):
+        self.cap, self.ks = cap, list(range(1, kmax + 1))
+        self.lowest: dict[int, float] = {}
+
+    def update(self) -> float:
+        self.lowest = self.cap.harmonic.scan(self.ks, exclude_rigid=True).lowest
+        return min(self.lowest.values())
+
+    def critical_k(self) -> float:
+        return float(min(self.lowest, key=self.lowest.get))
+
+    def unstable_count(self) -> float:
+        return float(sum(v < 0 for v in self.lowest.values()))
+
+
+def follow_axisymmetric(cap: AxisymmetricCap, *, kmax: int, step: float, max_step: float, history=None,
+                        vtk=None, progress=None) -> PathResult:
+    """The axisymmetric path to the final depth by arclength, with the exact axisymmetric stability
+    (limit points, axisymmetric bifurcations) and the harmonic scan at every state."""
+    monitor = HarmonicMonitor(cap, kmax)
+    qoi = {"d_over_H": lambda: cap.depth.Get() / cap.case.H, "force": cap.force,
+           "volume_change": cap.volume_change, "lowest_nonaxisymmetric": monitor.update,
+           "k_lowest": monitor.critical_k, "unstable_k_count": monitor.unstable_count}
+    return follow_path(cap.problem, cap.depth, method="arclength", step=step, max_step=max_step,
+                       min_step=step * 1e-4, target=cap.case.depth * cap.case.H, max_steps=400, qoi=qoi,
+                       stability=StabilityOptions(eigenvalues=1, locate=True, tol=1e-5 * cap.case.H),
+                       keep_states=True, history=history, vtk=vtk, progress=progress)
+
+
+def first_nonaxisymmetric(cap: AxisymmetricCap, path: PathResult, *, kmax: int) -> dict | None:
+    """Bisect the first step where a wave number ``k >= 1`` turns unstable (from the state before
+    it, on the same branch) to ``1e-4 H``."""
+    points = path.points
+    first = next((i for i, pt in enumerate(points) if pt.qoi["lowest_nonaxisymmetric"] < 0), None)
+    if first is None:
+        return None
+    if first == 0:
+        raise RuntimeError("the unloaded cap is already unstable")
+    before = points[first - 1]
+    if points[first].parameter <= before.parameter:
+        raise RuntimeError(f"the first non-axisymmetric instability lies on a part of the path where the "
+                           f"depth decreases (steps {first - 1}, {first}); bisection in depth is not possible")
+    cap.problem.restore_state(before.state)
+    cap.depth.Set(before.parameter)
+    found = first_harmonic_instability(cap.problem, cap.depth, points[first].parameter, ks=list(range(kmax + 1)),
+                                       step=(points[first].parameter - before.parameter) / 2,
+                                       tolerance=1e-4 * cap.case.H, stability=cap.harmonic)
+    if not found.found:
+        raise RuntimeError(f"the harmonic scan found k = {points[first].qoi['k_lowest']:.0f} unstable at step "
+                           f"{first} but not when re-solving from step {first - 1}")
+    cap.depth.Set(found.parameter)
+    cap.problem.solve()
+    return {"d_over_H": found.parameter / cap.case.H, "k": found.k, "force": cap.force(),
+            "volume_change": cap.volume_change(), "path_step": first}
+
+
+def snap_drops(path: PathResult) -> list[dict]:
+    """Jumps at fixed depth past each limit point in depth: the structure under displacement
+    control leaves the path at a depth maximum and lands where the path next returns to that depth
+    with its depth increasing again. ``drop`` is ``1 - F_after / F_before``."""
+    d = path.column("parameter")
+    f = path.column("force")
+    drops = []
+    for i in range(1, len(d) - 1):
+        if d[i] >= d[i - 1] and d[i] > d[i + 1]:  # a depth maximum: snap
+            lim_d, lim_f = d[i], f[i]
+            for j in range(i + 1, len(d) - 1):
+                if d[j] < lim_d <= d[j + 1]:
+                    s = (lim_d - d[j]) / (d[j + 1] - d[j])
+                    after = f[j] + s * (f[j + 1] - f[j])
+                    drops.append({"depth": float(lim_d), "force_before": float(lim_f), "force_after": float(after),
+                                  "drop": float(1 - after / lim_f), "limit_step": i, "landing_step": j + 1})
+                    break
+            else:
+                drops.append({"depth": float(lim_d), "force_before": float(lim_f), "force_after": None,
+                              "drop": None, "limit_step": i, "landing_step": None})
+    return drops
+
+
+def fit_coefficient(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Least-squares ``C`` of ``y = C x`` and the relative rms misfit."""
+    c = float(np.dot(x, y) / np.dot(x, x))
+    return c, float(np.sqrt(np.mean((y - c * x) ** 2)) / np.sqrt(np.mean(y**2)))
+
+
+def fits(case: Indentation, path: PathResult, fit_depth: float) -> dict:
+    d_over_h = path.column("d_over_H")
+    force = path.column("force")
+    early = (d_over_h > 0) & (d_over_h <= fit_depth) & np.concatenate([[True], np.diff(d_over_h) > 0])
+    if early.sum() < 3:
+        raise RuntimeError(f"fewer than 3 path points with 0 < d/H <= {fit_depth}: refine the first steps")
+    d = d_over_h[early] * case.H
+    if case.direction == "inward":
+        c, misfit = fit_coefficient(np.sqrt(d * case.t) / case.r, force[early])
+        return {"form": "F/(E0 t^2) = C sqrt(d t)/r", "C": c, "thesis_C": 0.42, "misfit": misfit,
+                "fit_range_d_over_H": fit_depth}
+    stretch = 1 + d / case.H
+    c, misfit = fit_coefficient(stretch - stretch**-2, force[early])
+    return {"form": "F/(E0 t^2) = C [(1 + d/H) - (1 + d/H)^-2]", "C": c, "misfit": misfit,
+            "fit_range_d_over_H": fit_depth}
+
+
+def draw(case: Indentation, path: PathResult, summary: dict, filename) -> None:
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
+    d, f = path.column("d_over_H"), path.column("force")
+    ax.plot(d, f, "-", color="k", lw=1.2, label="axisymmetric path")
+    unstable = path.column("lowest_nonaxisymmetric") < 0
+    ax.plot(d[unstable], f[unstable], ".", color="tab:red", ms=3, label="unstable to k >= 1")
+    first = summary["first_nonaxisymmetric"]
+    if first is not None:
+        ax.plot(first["d_over_H"], first["force"], "o", color="tab:red",
+                label=f"leaves axisymmetry: k = {first['k']}, d/H = {first['d_over_H']:.3f}")
+    for ev in summary["events"]:
+        ax.axvline(ev["d_over_H"], color="tab:blue", lw=0.6, ls=":")
+    for drop in summary["snaps"]:
+        if drop["drop"] is not None:
+            ax.annotate(f"snap: drop {100 * drop['drop']:.0f} %", (drop["depth"] / case.H, drop["force_before"]),
+                        fontsize=8)
+    fit = summary["fit"]
+    xs = np.linspace(0, min(d.max(), 3 * fit["fit_range_d_over_H"]), 100)
+    if case.direction == "inward":
+        ax.plot(xs, fit["C"] * np.sqrt(xs * case.H * case.t) / case.r, "--", color="tab:green",
+                label=f"C sqrt(d t)/r, C = {fit['C']:.3f} (thesis 0.42)")
+    else:
+        s = 1 + xs
+        ax.plot(xs, fit["C"] * (s - s**-2), "--", color="tab:green", label=f"C[(1+d/H)-(1+d/H)^-2], C = {fit['C']:.3g}")
+    ax.set_xlabel("d/H")
+    ax.set_ylabel("F/(E0 t^2)")
+    ax.set_title(f"H/R = {case.H:g}, {case.direction}")
+    ax.legend(fontsize=7)
+    bx.plot(d, 100 * path.column("volume_change"), color="k")
+    bx.set_xlabel("d/H")
+    bx.set_ylabel("gel volume change (%)")
+    fig.tight_layout()
+    fig.savefig(filename, dpi=130)
+    plt.close(fig)
+
+
+def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, step: float = 0.01,
+        max_step: float = 0.04, fit_depth: float = 0.1, progress=None) -> dict:
+    """One indentation on the axisymmetric model; ``step``/``max_step`` in units of ``H``."""
+    start = time.perf_counter()
+    run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "kmax": kmax,
+                                        "model": "axisymmetric", "t_over_r": THICKNESS_RATIO})
+    cap = AxisymmetricCap(case, res)
+    with History(run_dir.file("path.csv")) as history:
+        path = follow_axisymmetric(cap, kmax=kmax, step=step * case.H, max_step=max_step * case.H,
+                                   history=history, vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap")),
+                                   progress=progress)
+    summary = {
+        "ndof": cap.problem.space.ndof, "t": case.t, "r": case.r,
+        "stop_reason": path.stop_reason, "steps": len(path.points) - 1,
+        "events": [{"kind": ev.kind, "d_over_H": ev.parameter / case.H} for ev in path.events],
+        "snaps": snap_drops(path),
+        "max_volume_change": float(np.max(np.abs(path.column("volume_change")))),
+        "fit": fits(case, path, fit_depth),
+    }
+    summary["first_nonaxisymmetric"] = first_nonaxisymmetric(cap, path, kmax=kmax)
+    summary["negative_nonaxisymmetric_anywhere"] = bool(np.any(path.column("lowest_nonaxisymmetric") < 0))
+    summary["wall_s"] = time.perf_counter() - start
+    run_dir.write_json("summary.json", summary)
+    draw(case, path, summary, run_dir.file("force_depth.png"))
+    return summary
+
+
+def main(argv=None) -> dict:
+    parser = scene_parser(__doc__, out="results/microlens", quick="coarse section, H = 0.3, to d/H = 0.6")
+    parser.add_argument("--H", type=float, default=0.3, help="apex height / base radius")
+    parser.add_argument("--direction", default="inward", choices=DIRECTIONS)
+    parser.add_argument("--depth", type=float, default=1.0, help="final depth / H")
+    parser.add_argument("--mu", type=float, default=0.0, help="chemical potential of the bath")
+    parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric",))
+    parser.add_argument("--maxh", type=float, default=0.01)
+    parser.add_argument("--layers", type=int, default=2)
+    parser.add_argument("--order", type=int, default=3)
+    parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
+    parser.add_argument("--kmax", type=int, default=8)
+    parser.add_argument("--fit-depth", type=float, default=0.1, help="fit the early response up to this d/H")
+    args = parser.parse_args(argv)
+    quick = quick_run(args)
+    case = Indentation(H=0.3 if quick else args.H, direction=args.direction, depth=0.6 if quick else args.depth,
+                       mu=args.mu)
+    res = (SectionResolution(maxh=0.04, layers=2, order=2, apex=args.apex) if quick else
+           SectionResolution(maxh=args.maxh, layers=args.layers, order=args.order, apex=args.apex))
+    if not (isinstance(args.kmax, int) and 2 <= args.kmax <= 40):
+        raise ValueError(f"kmax must be an integer in [2, 40], got {args.kmax!r}")
+    if not 0 < args.fit_depth <= 1:
+        raise ValueError(f"fit-depth must be in (0, 1], got {args.fit_depth!r}")
+    summary = run(case, res, args.out, kmax=args.kmax, fit_depth=args.fit_depth, progress=Progress("microlens"))
+    first = summary["first_nonaxisymmetric"]
+    print(f"H/R = {case.H}, {case.direction}: {summary['steps']} steps, events "
+          f"{[(e['kind'], round(e['d_over_H'], 4)) for e in summary['events']]}, snaps "
+          f"{[(round(s['depth'] / case.H, 4), s['drop']) for s in summary['snaps']]}, first non-axisymmetric "
+          f"{None if first is None else (first['k'], round(first['d_over_H'], 4))}, fit C = {summary['fit']['C']:.4g} "
+          f"(misfit {summary['fit']['misfit']:.2g}), max |volume change| {summary['max_volume_change']:.2e}, "
+          f"{summary['wall_s']:.1f} s")
+    return summary
+
+
+if __name__ == "__main__":
+    main()
