@@ -49,6 +49,7 @@ from .common import (AXISYMMETRIC, SOLID3D, SURFACE, MeshBundle, chord_limit,
 GEL = "gel"
 OUTER, INNER, APEX, APEX_INNER, BASE, AXIS = ("outer", "inner", "apex", "apex_inner",
                                               "base", "axis")
+SYM = "sym"
 SOLID_BOUNDARIES = (OUTER, APEX, INNER, APEX_INNER, BASE)
 SECTION_BOUNDARIES = SOLID_BOUNDARIES + (AXIS,)
 _LAYERS = "cap_wall"
@@ -177,34 +178,42 @@ def cap_section(*, R: float = 1.0, H: float, t: float, maxh: float, layers: int 
 
 def cap_midsurface(*, R: float = 1.0, H: float, maxh: float, t: float | None = None,
                    apex_radius: float | None = None, apex_maxh: float | None = None,
-                   curve_order: int = 2) -> MeshBundle:
+                   curve_order: int = 2, half: bool = False) -> MeshBundle:
     """Mid-surface of the cap as a triangulated 2D manifold in 3D (shell models).
 
     Surface regions ``"gel"`` and ``"apex"`` (the apex patch), boundary curve
     ``"base"`` (use :meth:`MeshBundle.region` / :meth:`MeshBundle.boundary`).
     ``exact_measure`` is the mid-surface area ``2 pi r H``; with a thickness ``t`` (kept
     for the shell model, ``0 < t < r``) ``exact_volume`` is area times ``t``.
+    ``half``: only the part with ``y >= 0``, the cut meridians in the plane ``y = 0`` named
+    ``"sym"`` (a mirror plane: it carries every ``cos k theta`` pattern and removes the rotation
+    of a pattern about the axis); measures halved.
     """
     cap = _Cap(R, H, t, apex_radius, apex_maxh, maxh, curve_order)
+    if not isinstance(half, bool):
+        raise ValueError(f"half must be True or False, got {half!r}")
+    fraction = 0.5 if half else 1.0
     patches = []
     for name, (th1, th2) in ((APEX, (0.0, cap.theta_a)), (GEL, (cap.theta_a, cap.theta0))):
         arc = occ.ArcOfCircle(*(occ.Pnt(x, 0.0, z) for x, z in cap.arc(cap.r, th1, th2)))
         arc.name = name
-        patch = arc.Revolve(occ.Axis((0, 0, 0), occ.Z), 360)
+        patch = arc.Revolve(occ.Axis((0, 0, 0), occ.Z), 360 * fraction)
         if name == APEX and cap.apex_maxh is not None:
             patch.faces.maxh = cap.apex_maxh
         patches.append(patch)
     shape = occ.Glue(patches)
     for edge in shape.edges:
-        (_, _, z0), (x1, _, z1) = edge.bounding_box
+        (_, y0, z0), (x1, y1, z1) = edge.bounding_box
         if abs(z0) < 1e-6 * cap.R and abs(z1) < 1e-6 * cap.R and x1 > 0.5 * cap.R:
             edge.name = BASE
+        elif half and abs(y0) < 1e-6 * cap.R and abs(y1) < 1e-6 * cap.R:
+            edge.name = SYM
     geometry = occ.OCCGeometry(shape)
     ngmesh = generate(geometry, maxh=cap.maxh)
-    area = 2 * math.pi * cap.r * cap.H
-    apex_area = 2 * math.pi * cap.r**2 * (1 - math.cos(cap.theta_a))
+    area = 2 * math.pi * cap.r * cap.H * fraction
+    apex_area = 2 * math.pi * cap.r**2 * (1 - math.cos(cap.theta_a)) * fraction
     return MeshBundle(mesh=to_ngsolve(ngmesh, cap.curve_order), geometry=geometry,
                       model=SURFACE, exact_measure=area,
                       exact_volume=None if cap.t is None else area * cap.t,
-                      params=cap.params(), boundaries=(BASE,), regions=(GEL, APEX),
-                      region_measures={GEL: area - apex_area, APEX: apex_area})
+                      params={**cap.params(), "half": half}, boundaries=(BASE, SYM) if half else (BASE,),
+                      regions=(GEL, APEX), region_measures={GEL: area - apex_area, APEX: apex_area})

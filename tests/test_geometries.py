@@ -267,6 +267,23 @@ def test_cap_midsurface_and_section_describe_same_shell():
     assert section.exact_volume == pytest.approx(mid.exact_volume, rel=1e-4)
 
 
+def test_half_cap_midsurface_is_cut_by_the_mirror_plane():
+    H, maxh = 0.3, 0.1
+    full = g.cap_midsurface(H=H, maxh=maxh, apex_radius=0.05, curve_order=3)
+    half = g.cap_midsurface(H=H, maxh=maxh, apex_radius=0.05, curve_order=3, half=True)
+    assert measure(half) == pytest.approx(0.5 * measure(full), rel=1e-5)
+    assert half.exact_measure == pytest.approx(0.5 * full.exact_measure)
+    mesh = half.mesh
+    sym = mesh.BBoundaries("sym")
+    r = (1 + H * H) / (2 * H)
+    # two meridians from the base to the apex, in the plane y = 0
+    assert ng.Integrate(ng.CF(1), mesh, ng.BBND, definedon=sym) == pytest.approx(2 * r * math.asin(1 / r), rel=1e-6)
+    assert ng.Integrate(ng.y * ng.y, mesh, ng.BBND, definedon=sym) < 1e-20
+    assert ng.Integrate(ng.CF(1), mesh, ng.BBND, definedon=mesh.BBoundaries("base")) == pytest.approx(math.pi, rel=1e-6)
+    with pytest.raises(ValueError, match="half"):
+        g.cap_midsurface(H=H, maxh=maxh, half=1)
+
+
 # ------------------------------------------------------------------ graded fields ---
 
 P_VALUES = [0.25, 0.75, 2, 10]
