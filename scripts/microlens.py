@@ -225,6 +225,22 @@ def snap_drops(path: PathResult) -> list[dict]:
     return drops
 
 
+def force_maxima(path: PathResult) -> list[dict]:
+    """Local maxima of the force along the path and the following minimum: a segment of negative
+    stiffness, where a force-controlled cap would snap (``drop = 1 - F_min / F_max``)."""
+    f = path.column("force")
+    found = []
+    for i in range(1, len(f) - 1):
+        if f[i] > f[i - 1] and f[i] >= f[i + 1]:
+            j = i + 1
+            while j + 1 < len(f) and f[j + 1] <= f[j]:
+                j += 1
+            found.append({"d_over_H": float(path.points[i].qoi["d_over_H"]), "force_max": float(f[i]),
+                          "d_over_H_min": float(path.points[j].qoi["d_over_H"]), "force_min": float(f[j]),
+                          "drop": float(1 - f[j] / f[i])})
+    return found
+
+
 def fit_coefficient(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """Least-squares ``C`` of ``y = C x`` and the relative rms misfit."""
     c = float(np.dot(x, y) / np.dot(x, x))
@@ -300,6 +316,7 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
         "stop_reason": path.stop_reason, "steps": len(path.points) - 1,
         "events": [{"kind": ev.kind, "d_over_H": ev.parameter / case.H} for ev in path.events],
         "snaps": snap_drops(path),
+        "force_maxima": force_maxima(path),
         "max_volume_change": float(np.max(np.abs(path.column("volume_change")))),
         "fit": fits(case, path, fit_depth),
     }
@@ -338,7 +355,8 @@ def main(argv=None) -> dict:
     first = summary["first_nonaxisymmetric"]
     print(f"H/R = {case.H}, {case.direction}: {summary['steps']} steps, events "
           f"{[(e['kind'], round(e['d_over_H'], 4)) for e in summary['events']]}, snaps "
-          f"{[(round(s['depth'] / case.H, 4), s['drop']) for s in summary['snaps']]}, first non-axisymmetric "
+          f"{[(round(s['depth'] / case.H, 4), s['drop']) for s in summary['snaps']]}, force maxima "
+          f"{[(round(m['d_over_H'], 4), round(m['drop'], 4)) for m in summary['force_maxima']]}, first non-axisymmetric "
           f"{None if first is None else (first['k'], round(first['d_over_H'], 4))}, fit C = {summary['fit']['C']:.4g} "
           f"(misfit {summary['fit']['misfit']:.2g}), max |volume change| {summary['max_volume_change']:.2e}, "
           f"{summary['wall_s']:.1f} s")
