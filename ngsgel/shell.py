@@ -141,6 +141,7 @@ class GelShell(BuiltOnDemand):
         self._fixed: dict[str, list[str]] = {c: [] for c in _COMPONENTS}
         self._rotation_fixed: list[str] = []
         self._prescribed: list[tuple[str, int, ngs.CoefficientFunction]] = []
+        self._region_prescribed: list[tuple[str, int, ngs.CoefficientFunction]] = []
         self._surface_loads: list[tuple[str, ngs.CoefficientFunction]] = []
         self._point_loads: list[tuple[np.ndarray, np.ndarray, ngs.Parameter | None]] = []
         self._edge_moments: list[tuple[str, ngs.CoefficientFunction]] = []
@@ -196,6 +197,17 @@ class GelShell(BuiltOnDemand):
         self.fix(boundary, component)
         cf = value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(float(value))
         self._prescribed.append((boundary, _COMPONENTS.index(component), cf))
+
+    def prescribe_region(self, region: str, component: str, value) -> None:
+        """Displacement ``component`` equals ``value`` (number or CoefficientFunction, e.g. with a
+        ``Parameter``) on the whole surface region(s) ``region``: a rigid indenter patch (the
+        solid models' prescribed apex face); ``ngsgel.stability.conjugate_force`` gives its
+        force."""
+        self._check_open()
+        if not any(self.mesh.Boundaries(region).Mask()):
+            raise ValueError(f"region {region!r} matches no surface region; the mesh has {sorted(set(self.mesh.GetBoundaries()))}")
+        cf = value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(float(value))
+        self._region_prescribed.append((region, _COMPONENTS.index(self._component(component)), cf))
 
     def add_surface_load(self, region: str, load) -> None:
         """Dead load per unit reference area (3-vector, numbers or CoefficientFunctions) on the
@@ -267,6 +279,10 @@ class GelShell(BuiltOnDemand):
     def _build(self) -> None:
         mesh, k = self.mesh, self.order
         flags = {f"dirichlet{c}_bbnd": "|".join(b) for c, b in self._fixed.items() if b}
+        for c in _COMPONENTS:  # surface regions are the mesh's BND elements
+            regions = [region for region, i, _ in self._region_prescribed if _COMPONENTS[i] == c]
+            if regions:
+                flags[f"dirichlet{c}"] = "|".join(regions)
         V = ngs.VectorH1(mesh, order=k, **flags)
         W = ngs.NormalFacetSurface(mesh, order=k - 1, dirichlet_bbnd="|".join(self._rotation_fixed))
         L = ngs.SurfaceL2(mesh, order=k - 1)
@@ -427,6 +443,8 @@ class GelShell(BuiltOnDemand):
         target.vec[:] = 0.0
         for boundary, i, value in self._prescribed:
             target.components[0].components[i].Set(value, ngs.BBND, definedon=self.mesh.BBoundaries(boundary))
+        for region, i, value in self._region_prescribed:
+            target.components[0].components[i].Set(value, ngs.BND, definedon=self.mesh.Boundaries(region))
         for vertex, component, value in self._point_constraints:
             target.vec[int(self._vertex_dofs(vertex)[component])] = value.Get() if isinstance(value, ngs.Parameter) else float(value)
         out.data = target.vec

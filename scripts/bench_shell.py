@@ -25,10 +25,18 @@ import time
 import ngsolve as ngs
 from netgen import occ
 
+import numpy as np
+
+from netgen.occ import OCCGeometry
+
 from geometries import cap_midsurface, cap_section, cap_solid, plate_midsurface
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, ramp
+from geometries.fields import radial_grading
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, follow_path, ramp
+from ngsgel.continuation import StabilityOptions
 from ngsgel.output import History, Progress, RunDirectory
+from ngsgel.patterns import sample_on_circle, wave_number
 from ngsgel.shell import GelShell, plate_bending_stiffness
+from ngsgel.stability import conjugate_force
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 MU0, MU1 = -0.05, -0.049
@@ -130,6 +138,208 @@ def rolled_strip_tip_error(*, maxh: float = 0.1, steps: int = 4) -> tuple[float,
     # the rolling direction follows the moment's sign convention; compare magnitudes in z
     error = math.hypot(ux - exact[0], abs(uz) - exact[1]) / length
     return error, shell.space.ndof, result.steps
+
+
+# ----------------------------------------------------------------------------- microlens onset
+# The inward-indented clamped cap of scripts/microlens_onset.py (H = 0.3, t = 0.005 r, mu = 0):
+# the apex patch (polar angle below asin(APEX / r)) is moved down rigidly by ``depth`` (its z
+# displacement is prescribed, x and y free), on the outer face of the solid and on the
+# mid-surface of the shell.
+APEX = 0.05
+MICROLENS_T = 0.005 * (1 + H**2) / (2 * H)
+STIFFNESS_DEPTH = 1e-3 * MICROLENS_T  # linear range: the stiffness changes by ~1e-4 over it
+
+
+def cap_section_stiffness(*, maxh: float, layers: int = 2, order: int = 3) -> tuple[float, int]:
+    """Apex-patch stiffness ``F/d`` of the axisymmetric solid (the 3D force: the section's energy
+    carries the 2 pi r weight) at ``d = STIFFNESS_DEPTH``, and the section's unknowns."""
+    bundle = cap_section(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX,
+                         apex_maxh=min(maxh, APEX / 4))
+    prob = EquilibriumProblem(bundle.mesh, kinematics=Axisymmetric(), materials=GEL, lam0=GEL.lam_free(0.0),
+                              mu=0.0, order=order)
+    depth = ngs.Parameter(0.0)
+    prob.fix("base")
+    prob.fix("axis", "r")
+    prob.prescribe("apex", "z", -depth)
+    depth.Set(STIFFNESS_DEPTH)
+    prob.solve()
+    return conjugate_force(prob, depth) / STIFFNESS_DEPTH, prob.space.ndof
+
+
+def _apex_areas() -> tuple[float, float]:
+    """Areas of the apex patch on the solid's outer face and on the mid-surface."""
+    r = (1 + H**2) / (2 * H)
+    one_minus_cos = 1 - math.sqrt(1 - (APEX / r) ** 2)
+    return 2 * math.pi * (r + MICROLENS_T / 2) ** 2 * one_minus_cos, 2 * math.pi * r**2 * one_minus_cos
+
+
+def cap_section_pressure_stiffness(*, maxh: float, layers: int = 2, order: int = 3) -> tuple[float, int]:
+    """Force over mid-surface apex deflection of the axisymmetric solid under a small uniform
+    vertical dead load on the apex patch of its outer face (a load both the solid and the
+    shell represent, unlike the rigid patch, whose edge the shell clamps), and the unknowns."""
+    bundle = cap_section(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX,
+                         apex_maxh=min(maxh, APEX / 4))
+    prob = EquilibriumProblem(bundle.mesh, kinematics=Axisymmetric(), materials=GEL, lam0=GEL.lam_free(0.0),
+                              mu=0.0, order=order)
+    prob.fix("base")
+    prob.fix("axis", "r")
+    force = 2e-12  # w ~ 1e-3 t: linear (stiffness ~2e-7)
+    prob.add_traction("apex", (0.0, -force / _apex_areas()[0]))
+    prob.solve()
+    return force / -prob.displacement(bundle.mesh(0.0, H))[1], prob.space.ndof
+
+
+def cap_shell_pressure_stiffness(*, maxh: float, apex_maxh: float, order: int) -> tuple[float, int]:
+    """The same load on the shell's mid-surface apex patch; force over apex deflection."""
+    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=APEX, apex_maxh=apex_maxh, curve_order=order)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=MICROLENS_T, mu=0.0,
+                     order=order)
+    shell.clamp("base")
+    force = 2e-12
+    shell.add_surface_load("apex", (0.0, 0.0, -force / _apex_areas()[1]))
+    shell.solve()
+    return force / -shell.displacement(bundle.mesh(0.0, 0.0, H, ngs.BND))[2], shell.space.ndof
+
+
+def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float,
+               radii: np.ndarray) -> dict:
+    """Wave number of a critical mode: its normal displacement (sphere normal) sampled on
+    circles of the reference mid-surface at horizontal radii ``radii``; the circle where the
+    non-axisymmetric part is largest decides."""
+    normal = ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r
+    w = ngs.InnerProduct(mode_u, normal)
+    best = None
+    for rho in radii:
+        z = zc + float(np.sqrt(r * r - rho * rho))
+        samples = sample_on_circle(w, mesh, center=(0.0, 0.0, z), radius=float(rho), n=64)
+        analysis = wave_number(samples.values, max_mode=12)
+        if best is None or analysis.amplitude > best[1].amplitude:
+            best = (float(rho), analysis)
+    rho, analysis = best
+    return {"k": analysis.k, "purity": analysis.purity, "mode_radius": rho, "k_second": analysis.second}
+
+
+def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: float = 0.8,
+                    step: float = 0.1, tol: float = 1e-3, progress=None) -> dict:
+    """First bifurcation of the inward-indented full cap (no symmetry imposed, so any wave number
+    can appear) with ``GelShell``: the apex patch's z displacement is stepped by the continuation
+    driver (natural parameter; under displacement control the axisymmetric path has no limit
+    point before the bifurcation), the exact negative count of the shell's tangent is checked at
+    every state, and the first change is located to ``tol H`` in depth. Returns the critical
+    ``d/H``, the critical mode's wave number (``_mode_wave``), the linear-range patch stiffness,
+    unknowns and wall time (mesh excluded); also when no bifurcation occurs up to
+    ``depth_max H`` (``found`` False; the lowest eigenvalue along the path is in the row)."""
+    start = time.perf_counter()
+    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=APEX, apex_maxh=apex_maxh, curve_order=order)
+    mesh_seconds = time.perf_counter() - start
+    r = (1 + H**2) / (2 * H)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=MICROLENS_T, mu=0.0,
+                     order=order)
+    shell.clamp("base")
+    depth = ngs.Parameter(0.0)
+    shell.prescribe_region("apex", "z", -depth)
+    unloaded = shell.save_state()
+    depth.Set(STIFFNESS_DEPTH)
+    shell.solve()
+    stiffness = conjugate_force(shell, depth) / STIFFNESS_DEPTH
+    depth.Set(0.0)
+    shell.restore_state(unloaded)
+    path = follow_path(shell, depth, method="natural", step=step * H, max_step=step * H, target=depth_max * H,
+                       stability=StabilityOptions(eigenvalues=2, tol=tol * H), progress=progress,
+                       stop=lambda point: bool(point.negative))
+    row = {"model": "shell", "order": order, "maxh": maxh, "apex_maxh": apex_maxh,
+           "ndof": shell.space.ndof, "elements": bundle.mesh.GetNE(ngs.BND), "stiffness": stiffness,
+           "steps": len(path.points), "found": bool(path.events),
+           "lowest_eigenvalue": [(p.parameter / H, p.eigenvalues[0]) for p in path.points]}
+    if path.events:
+        event = path.events[0]
+        row.update(depth_over_H=event.parameter / H, depth_error_over_H=(event.parameter_error or 0.0) / H,
+                   event=event.kind, negative_after=event.negative_after,
+                   **_mode_wave(event.mode.components[0], bundle.mesh, r=r, zc=H - r,
+                                radii=np.linspace(0.05, 0.7, 14)))
+    row["seconds"] = time.perf_counter() - start - mesh_seconds
+    return row
+
+
+# ----------------------------------------------------------------------------- graded plate
+# Softer-edge disk of scripts/graded_plate.py (MODEL.md 5 C): R = 1, t = 0.01, chi = 0.5,
+# Nv(r) = n0 + (nR - n0) (r/R)^p, reference stretched by the stiff gel's lam_free(mu0), mu0 = -1,
+# mu raised towards 0; axisymmetric + harmonic onsets k = 2 and mu_c below (docs/graded.md).
+GRADED_N0, GRADED_NR, GRADED_T, GRADED_MU0 = 1e-2, 1e-3, 0.01, -1.0
+GRADED_REFERENCE = {0.25: -0.1706, 0.75: -0.2507, 2.0: -0.2910, 10.0: -0.22366575}
+PIN_RADIUS = 0.25  # inside the hoop-compressed rim where the critical modes live (r/R > 0.68)
+
+
+def split_disk(*, maxh: float, curve_order: int) -> ngs.Mesh:
+    """Unit disk in z = 0 as four quadrant faces (region "gel", rim "rim"): the straight edges
+    along the x and y axes put mesh vertices exactly on the axes for the rigid-motion pins."""
+    disk = occ.WorkPlane().Circle(0, 0, 1.0).Face()
+    quadrants = [disk * occ.Box(occ.Pnt(0 if sx > 0 else -2, 0 if sy > 0 else -2, -1),
+                                occ.Pnt(2 if sx > 0 else 0, 2 if sy > 0 else 0, 1))
+                 for sx in (1, -1) for sy in (1, -1)]
+    shape = occ.Glue(quadrants)
+    shape.faces.name = "gel"
+    for edge in shape.edges:
+        c = edge.center
+        if abs(math.hypot(c.x, c.y) - 1.0) < 0.1:
+            edge.name = "rim"
+    mesh = ngs.Mesh(OCCGeometry(shape).GenerateMesh(maxh=maxh))
+    mesh.Curve(curve_order)
+    return mesh
+
+
+def _axis_vertex(mesh: ngs.Mesh, axis: int, radius: float) -> tuple[float, float, float]:
+    """The mesh vertex on coordinate axis ``axis`` nearest to ``radius`` from the centre."""
+    points = np.array([v.point for v in mesh.vertices])
+    on_axis = np.flatnonzero(np.abs(points[:, 1 - axis]) < 1e-12)
+    best = on_axis[np.argmin(np.abs(points[on_axis, axis] - radius))]
+    return tuple(points[best])
+
+
+def graded_plate_shell_onset(p: float, *, maxh: float, order: int, mu_max: float = -0.05, step: float = 0.05,
+                             tol: float = 1e-5, progress=None) -> dict:
+    """Onset of buckling of the free-swelling graded disk with ``GelShell`` on the full disk:
+    graded ``Nv`` as a field, ``mu`` stepped from ``mu0`` by the continuation driver with the exact
+    negative count of the tangent, the first change located to ``tol`` in ``mu``. Rigid motions
+    are removed by six statically determinate pins (centre: x, y, z; a vertex on the x axis at
+    ``PIN_RADIUS``: y, z; one on the y axis: z); the flat state loads none of them, and the
+    critical modes (outer third) hardly move there. The wave number is that of the mode's
+    deflection on the circle where it is largest."""
+    start = time.perf_counter()
+    mesh = split_disk(maxh=maxh, curve_order=order)
+    mesh_seconds = time.perf_counter() - start
+    stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=GEL.chi)
+    gel = FloryRehnerGel(Nv=radial_grading(GRADED_N0, GRADED_NR, p, 1.0), chi=GEL.chi)
+    shell = GelShell(mesh, material=gel, lam0=stiff.lam_free(GRADED_MU0), thickness=GRADED_T, mu=GRADED_MU0,
+                     order=order)
+    shell.prescribe_point((0.0, 0.0, 0.0), "x", 0.0)
+    shell.prescribe_point((0.0, 0.0, 0.0), "y", 0.0)
+    shell.prescribe_point((0.0, 0.0, 0.0), "z", 0.0)
+    on_x, on_y = _axis_vertex(mesh, 0, PIN_RADIUS), _axis_vertex(mesh, 1, PIN_RADIUS)
+    shell.prescribe_point(on_x, "y", 0.0)
+    shell.prescribe_point(on_x, "z", 0.0)
+    shell.prescribe_point(on_y, "z", 0.0)
+    path = follow_path(shell, shell.mu, method="natural", step=step, max_step=step, target=mu_max,
+                       stability=StabilityOptions(eigenvalues=2, tol=tol), progress=progress,
+                       stop=lambda point: bool(point.negative))
+    row = {"model": "shell", "p": p, "order": order, "maxh": maxh, "ndof": shell.space.ndof,
+           "elements": mesh.GetNE(ngs.BND), "steps": len(path.points), "found": bool(path.events),
+           "lowest_eigenvalue": [(pt.parameter, pt.eigenvalues[0]) for pt in path.points]}
+    if path.events:
+        event = path.events[0]
+        mode = event.mode.components[0]
+        best = None
+        for rho in np.linspace(0.3, 0.95, 14):
+            samples = sample_on_circle(mode[2], mesh, center=(0.0, 0.0, 0.0), radius=float(rho), n=64)
+            analysis = wave_number(samples.values, max_mode=12)
+            if best is None or analysis.amplitude > best[1].amplitude:
+                best = (float(rho), analysis)
+        row.update(mu_critical=event.parameter, mu_error=event.parameter_error, event=event.kind,
+                   negative_after=event.negative_after, k=best[1].k, purity=best[1].purity,
+                   k_second=best[1].second, mode_radius=best[0],
+                   pin_reactions=[shell.reaction(on_x, "z"), shell.reaction(on_y, "z")])
+    row["seconds"] = time.perf_counter() - start - mesh_seconds
+    return row
 
 
 def record(history: History, rows: list[dict], row: dict) -> None:
