@@ -40,3 +40,20 @@ def test_bad_input_is_rejected():
             microlens.Indentation(**kwargs)
     with pytest.raises(ValueError, match="maxh"):
         microlens.SectionResolution(maxh=0.0)
+
+
+def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
+    # H = 0.3R, coarse section (order 2, h = 0.04): the first non-axisymmetric instability has 3
+    # waves (Fitch: lambda = 14.08 > 13.5). The converged depth is d/H = 0.477 (h = 0.02, order 3,
+    # same patch; with a 0.05 R patch h = 0.02 and 0.01 differ by 0.1 %): the coarse section must
+    # be within 10 % of it.
+    summary = microlens.main(["--quick", "--out", str(tmp_path)])
+    first = summary["first_nonaxisymmetric"]
+    assert first is not None and first["k"] == 3
+    assert first["d_over_H"] == pytest.approx(0.477, rel=0.1)
+    # indentation at fixed mu hardly changes the gel volume (thesis: 0.2 % at most)
+    assert summary["max_volume_change"] < 2e-3
+    assert summary["snaps"] == [] and summary["force_maxima"] == []
+    assert summary["fit"]["C"] > 0 and summary["fit"]["misfit"] < 0.15
+    for name in ("path.csv", "summary.json", "force_depth.png"):
+        assert (tmp_path / name).stat().st_size > 0
