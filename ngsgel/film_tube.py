@@ -50,7 +50,8 @@ from .problem import EquilibriumProblem
 from .ring_foundation import critical_mode, foundation_stiffness_annulus
 from .stepping import ramp
 
-__all__ = ["FilmTube", "RadialTube", "RingOnset", "gel_plane_strain_moduli", "ring_onset"]
+__all__ = ["FilmTube", "RadialTube", "RingOnset", "gel_plane_strain_moduli", "linear_film_stresses", "linear_switch",
+           "ring_onset", "thesis_ring_estimate"]
 
 GEL, FILM_INNER, FILM_OUTER = "gel", "film_inner", "film_outer"
 
@@ -283,3 +284,118 @@ def ring_onset(tube: FilmTube, film: Literal["inner", "outer"], *, mu_end: float
     return RingOnset(film=film, mu=hi, n=mode.n, n_continuous=mode.n_continuous, N_cr=mode.N_cr,
                      sigma_cr=mode.N_cr / tube.film(film)[1], volume_fraction=state.volume_fraction,
                      stiffness=stiffness)
+
+
+# ----------------------------------------------------------------------------- the thesis's linear analysis
+def linear_film_stresses(tube: FilmTube, *, E_gel: float, nu_gel: float) -> tuple[float, float]:
+    """Mean hoop stresses ``(sigma_fi, sigma_fo)`` of the films (tension positive) per unit free
+    in-plane shrink strain of the gel (thesis eq. 4-4, derived here): three bonded plane-strain
+    Lame cylinders (inner film, gel, outer film; the films with ``tube.Efi``, ``tube.Efo``,
+    ``tube.nu_film``, the gel with ``E_gel``, ``nu_gel``) in the reference geometry; the gel alone
+    carries a uniform isotropic in-plane eigenstrain ``-1`` (continuity of radial stress and
+    displacement at both interfaces, free faces). Linear, so only the ratio matters.
+
+    Thin-film limit with an incompressible gel (``nu_gel = 0.5``; ``g = E_gel/(1+nu_gel) = 2G``,
+    ``alpha = Ef t/((1-nu_f^2) R)`` the membrane stiffness of a film over its radius)::
+
+        sigma_fi/sigma_fo = (Efi/Efo) (g - alpha_o)/(g + alpha_i)
+
+    independent of ``Ro/Ri``; the inner film goes into tension once ``alpha_o > g`` (a stiff outer
+    ring holds the gel out, and it pulls away from the bore). ``nu_gel = 0.5`` is taken as the
+    limit ``0.5 - 1e-9``."""
+    _positive("E_gel", E_gel)
+    if not -1.0 < nu_gel <= 0.5:
+        raise ValueError(f"nu_gel must lie in (-1, 0.5], got {nu_gel!r}")
+    nu_gel = min(nu_gel, 0.5 - 1e-9)
+    t = tube
+    layers = [(t.Ri - t.tfi, t.Ri, t.Efi, t.nu_film, 0.0), (t.Ri, t.Ro, E_gel, nu_gel, -1.0),
+              (t.Ro, t.Ro + t.tfo, t.Efo, t.nu_film, 0.0)]
+
+    def plane(E, nu, eig):  # plane-strain constants as plane-stress ones (the eigenstrain is in-plane)
+        return E / (1 - nu**2), nu / (1 - nu), eig
+
+    def radial_stress(i, r):  # sigma_rr = c ((1+nu) (A - eig) - (1-nu) B/r^2), u = A r + B/r
+        E, nu, eig = plane(*layers[i][2:])
+        c = E / (1 - nu**2)
+        row = np.zeros(6)
+        row[2 * i], row[2 * i + 1] = c * (1 + nu), -c * (1 - nu) / r**2
+        return row, c * (1 + nu) * eig
+
+    def displacement(i, r):
+        row = np.zeros(6)
+        row[2 * i], row[2 * i + 1] = r, 1.0 / r
+        return row
+
+    rows, rhs = [], []
+    for i, r in ((0, layers[0][0]), (2, layers[2][1])):  # free faces
+        row, b = radial_stress(i, r)
+        rows.append(row), rhs.append(b)
+    for i in (0, 1):  # interfaces
+        r = layers[i][1]
+        (r1, b1), (r2, b2) = radial_stress(i, r), radial_stress(i + 1, r)
+        rows.append(r1 - r2), rhs.append(b1 - b2)
+        rows.append(displacement(i, r) - displacement(i + 1, r)), rhs.append(0.0)
+    x = np.linalg.solve(np.array(rows), np.array(rhs))
+    out = []
+    for i in (0, 2):
+        r1, r2 = layers[i][:2]
+        E, nu, eig = plane(*layers[i][2:])
+        c = E / (1 - nu**2)
+        out.append(c * ((1 + nu) * (x[2 * i] - eig) + (1 - nu) * x[2 * i + 1] / (r1 * r2)))  # thickness mean
+    return out[0], out[1]
+
+
+def _linear_critical_stress(tube: FilmTube, film: str, E_gel: float, nu_gel: float, stiffness: str) -> float:
+    a, b = tube.Ri, tube.Ro
+    G = E_gel / (2 * (1 + nu_gel))
+    _, t, E = tube.film(film)
+    R = a if film == "inner" else b  # the thesis's radius: the interface
+    if stiffness == "michell":
+        def K(n):
+            return foundation_stiffness_annulus(n, inner_radius=a, outer_radius=b, shear_modulus=G, nu=nu_gel,
+                                                loaded=film, interface="no_slip")
+    elif stiffness == "lame":
+        K = foundation_stiffness_annulus(0, inner_radius=a, outer_radius=b, shear_modulus=G, nu=nu_gel, loaded=film)
+    else:
+        raise ValueError(f"stiffness must be 'michell' or 'lame', got {stiffness!r}")
+    return critical_mode(R, t, E, tube.nu_film, K).N_cr / t
+
+
+def linear_switch(tube: FilmTube, *, E_gel: float, nu_gel: float, stiffness: Literal["michell", "lame"] = "lame",
+                  lo: float = 0.1, hi: float = 1000.0) -> float | None:
+    """The thesis's switch (fig. 4-2, its eq. 4-3 against eq. 4-4): the outer-film modulus (same
+    units as ``tube.Efo``, which is otherwise ignored) at which the linear pre-buckling stress
+    ratio ``sigma_fi/sigma_fo`` (:func:`linear_film_stresses`) equals the ratio of the films'
+    critical stresses (ring on the Lame stiffness, the thesis's ``K_i``, ``K_o``, or on the
+    mode-``n`` Michell stiffness of the annulus; reference geometry, interface radii). Below it
+    the inner film buckles first. Root in ``log Efo`` between ``lo`` and ``hi`` times
+    ``tube.Efi``; None if they do not bracket it."""
+    from dataclasses import replace
+    from scipy.optimize import brentq
+
+    def excess(log_efo: float) -> float:  # > 0: the inner film is nearer its critical stress
+        t = replace(tube, Efo=math.exp(log_efo))
+        si, so = linear_film_stresses(t, E_gel=E_gel, nu_gel=nu_gel)
+        return si / so - _linear_critical_stress(t, "inner", E_gel, nu_gel, stiffness) / \
+            _linear_critical_stress(t, "outer", E_gel, nu_gel, stiffness)
+
+    a, b = math.log(lo * tube.Efi), math.log(hi * tube.Efi)
+    if excess(a) <= 0 or excess(b) >= 0:
+        return None
+    return math.exp(brentq(excess, a, b, xtol=1e-10))
+
+
+def thesis_ring_estimate(tube: FilmTube, film: Literal["inner", "outer"], *, E_gel: float | None = None,
+                         nu_gel: float = 0.5) -> tuple[float, float]:
+    """The thesis's eqs. 4-1, 4-2 for one film: ``n = R (K/(Ef_bar I))^(1/4)`` and
+    ``sigma_cr = 2 sqrt(K Ef_bar I)/t`` with its mode-independent Lame stiffness ``K_i`` or ``K_o``
+    of the reference annulus, gel modulus ``E_gel`` (default ``3 Nv``, the thesis's ``Es = 3NkT``)
+    and ``nu_gel = 0.5``, ``R`` the interface radius. Returns ``(n, sigma_cr)``."""
+    E_gel = 3.0 * tube.Nv if E_gel is None else _positive("E_gel", E_gel)
+    a, b = tube.Ri, tube.Ro
+    K = foundation_stiffness_annulus(0, inner_radius=a, outer_radius=b, shear_modulus=E_gel / (2 * (1 + nu_gel)),
+                                     nu=nu_gel, loaded=film)
+    _, t, E = tube.film(film)
+    D = E * t**3 / (12 * (1 - tube.nu_film**2))
+    R = a if film == "inner" else b
+    return R * (K / D) ** 0.25, 2 * math.sqrt(K * D) / t

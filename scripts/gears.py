@@ -15,10 +15,12 @@ constraints that carry no load (``ngsgel.supports``). Outputs in ``--out``: ``pa
 ``path.csv/.jsonl`` (every step), ``summary.json``, ``gear.png`` (deformed films and gel),
 ``gear.vtu``.
 
-Sweeps (``--sweep``): ``efo`` (thesis figs. 4-1/4-2: the type of the first instability for
-``Efo/Es`` at ``Efi/Es = 12.5``, FE onset against the ring-on-foundation analysis),
+Sweeps (``--sweep``, values from ``--values``): ``efo``, ``efi``, ``ri_tfi``, ``ro_tfo`` (thesis
+figs. 4-1 to 4-4: FE onset film, ``mu``, gel volume and wave number against one parameter, with
+the ring-on-foundation analysis and the thesis's eq. 4-1; ``efo`` also bisects the analysis's
+switch of the first-buckling film and the Efo ranges where each film buckles before the end),
 ``convergence`` (onset and wave numbers at several resolutions with wall times). Each writes
-``<name>.csv`` and ``<name>.png``.
+``sweep_<name>.csv`` / ``<name>.csv`` and a picture.
 """
 
 from __future__ import annotations
@@ -41,7 +43,8 @@ import ngsolve as ngs  # noqa: E402
 import geometries as geo  # noqa: E402
 from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
 from ngsgel.continuation import BorderedCorrector, follow_path  # noqa: E402
-from ngsgel.film_tube import FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset  # noqa: E402
+from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset,  # noqa: E402
+                              thesis_ring_estimate)
 from ngsgel.newton import NewtonError  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
@@ -356,20 +359,23 @@ def analysis(scene: Scene, mu_end: float, stiffnesses=("michell", "lame"), *, st
 
 
 def analysis_switch_point(base: Scene, stiffness: str, *, lo: float = 1.0, hi: float = 100.0,
-                          rtol: float = 1e-3) -> float | None:
+                          rtol: float = 1e-3, far_volume: float = 0.5) -> float | None:
     """``Efo/Es`` at which the analysis's inner and outer onsets coincide (the thesis's 6.5), by
-    bisection in ``log Efo`` between ``lo`` (inner first) and ``hi`` (outer first); a film that does
-    not buckle before the end counts as buckling at ``mu_end``. None if ``lo``, ``hi`` do not
+    bisection in ``log Efo`` between ``lo`` (inner first) and ``hi`` (outer first). The onsets are
+    followed past the run's end, to a free-gel volume fraction ``far_volume``: near the switch
+    both lie just past 70 % (an earlier version cut them at the end and so found the ``Efo`` at
+    which the outer onset reaches the end, 3.37, instead of the crossing, 3.33). A film that does
+    not buckle before ``far_volume`` counts as buckling there. None if ``lo``, ``hi`` do not
     bracket a switch."""
     def outer_first(efo: float) -> bool:
         scene = Scene(**{**asdict(base), "efo": efo})
         tube = scene.tube()
-        mu_end = tube.mu_at_volume_fraction(scene.volume)
+        mu_far = tube.mu_at_volume_fraction(min(far_volume, scene.volume))
         radial = RadialTube(tube)
         mus = {}
         for film in ("inner", "outer"):
-            mu = ring_onset(tube, film, mu_end=mu_end, stiffness=stiffness, radial=radial, steps=20, tol=1e-8).mu
-            mus[film] = mu_end if mu is None else mu
+            mu = ring_onset(tube, film, mu_end=mu_far, stiffness=stiffness, radial=radial, steps=30, tol=1e-9).mu
+            mus[film] = mu_far if mu is None else mu
         return mus["outer"] > mus["inner"]
 
     if outer_first(lo) or not outer_first(hi):
@@ -378,6 +384,36 @@ def analysis_switch_point(base: Scene, stiffness: str, *, lo: float = 1.0, hi: f
         mid = math.sqrt(lo * hi)
         lo, hi = (lo, mid) if outer_first(mid) else (mid, hi)
     return math.sqrt(lo * hi)
+
+
+def double_onset_zone(base: Scene, stiffness: str = "michell", *, lo: float = 0.3, hi: float = 100.0,
+                      rtol: float = 1e-3) -> dict:
+    """Where each film reaches its critical force before the run's end (analysis, each film on
+    its own): the inner film for ``Efo/Es`` below ``inner_below``, the outer for ``Efo/Es`` above
+    ``outer_above``. If ``outer_above < inner_below`` both films buckle before the end in between
+    (the analysis's double-teeth zone); otherwise neither does there (a zone of round tubes)."""
+    def onset_before_end(film: str, efo: float) -> bool:
+        scene = Scene(**{**asdict(base), "efo": efo})
+        tube = scene.tube()
+        return ring_onset(tube, film, mu_end=tube.mu_at_volume_fraction(scene.volume), stiffness=stiffness,
+                          steps=30, tol=1e-9).mu is not None
+
+    edges = {}
+    for film, key in (("inner", "inner_below"), ("outer", "outer_above")):
+        a, b = lo, hi  # the inner film buckles at a, not at b; the outer the other way round
+        if onset_before_end(film, a) == onset_before_end(film, b):
+            edges[key] = None
+            continue
+        while b / a > 1 + rtol:
+            mid = math.sqrt(a * b)
+            if onset_before_end(film, mid) == onset_before_end(film, a):
+                a = mid
+            else:
+                b = mid
+        edges[key] = math.sqrt(a * b)
+    i, o = edges["inner_below"], edges["outer_above"]
+    edges["kind"] = None if i is None or o is None else ("double" if o < i else "round")
+    return edges
 
 
 def check_start(ana: dict, fraction: float = 0.8) -> float | None:
@@ -503,43 +539,69 @@ def write_table(path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
-def sweep_efo(base: Scene, res: Resolution, run: RunDirectory, values, progress=None) -> list[dict]:
-    """Type of the first instability against Efo/Es (FE onset and both analyses)."""
+SWEEPS = {  # parameter: (values, what the sweep reproduces)
+    "efo": ((1.0, 3.0, 5.8, 7.23, 8.8, 20.0, 100.0), "figs. 4-1/4-2 and 4-4B: the first-buckling film against Efo/Es"),
+    "efi": ((5.0, 12.5, 25.0, 50.0), "fig. 4-3B: inner teeth against Efi/Es (run with --efo 1)"),
+    "ri_tfi": ((20.0, 30.0, 50.0, 80.0), "fig. 4-3A: inner teeth against Ri/tfi (run with --efo 1)"),
+    "ro_tfo": ((50.0, 100.0, 150.0), "fig. 4-4A: outer teeth against Ro/tfo (run with --efi 1)"),
+}
+
+
+def sweep_parameter(base: Scene, res: Resolution, run: RunDirectory, name: str, values, progress=None) -> list[dict]:
+    """FE onset (film, wave number, ``mu`` and gel volume) against one scene parameter, with the
+    ring-on-foundation analysis (Michell and our Lame stiffness) and the thesis's eq. 4-1 (its Lame
+    stiffness with Es = 3Nv, nu_s = 0.5). Onsets past the thesis's 70 % are found if ``--volume``
+    is below 0.7 (``before_70``: the onset ``mu`` lies above the free gel's 70 % ``mu``)."""
     rows = []
-    for efo in values:
-        scene = Scene(**{**asdict(base), "efo": float(efo)})
+    for value in values:
+        scene = Scene(**{**asdict(base), name: float(value)})
         t0 = time.perf_counter()
         model = GearModel(scene, res)
         ana = analysis(scene, model.mu_end)
         record, _ = onset(model, progress=progress, start_mu=check_start(ana))
-        row = {"efo": efo, "fe_mu_cr": record and record["mu_cr"], "fe_film": record and record["mode_film"],
+        row = {name: value, "fe_mu_cr": record and record["mu_cr"], "fe_film": record and record["mode_film"],
                "fe_k": record and record["mode_k"], "fe_volume_cr": record and record["volume_fraction_cr"],
-               "fe_ratio_inner_outer": record and record["mode_amplitude_ratio_inner_outer"],
-               "seconds": time.perf_counter() - t0}
+               "fe_before_70": record and record["mu_cr"] >= model.tube.mu_at_volume_fraction(0.7),
+               "fe_ratio_inner_outer": record and record["mode_amplitude_ratio_inner_outer"]}
         for stiffness in ("michell", "lame"):
             for film in ("inner", "outer"):
                 row[f"{stiffness}_{film}_mu"] = ana[f"{stiffness}_{film}"]["mu"]
                 row[f"{stiffness}_{film}_n"] = ana[f"{stiffness}_{film}"]["n"]
             row[f"{stiffness}_first"] = ana[f"{stiffness}_first"]
+        for film in ("inner", "outer"):
+            row[f"thesis_{film}_n"] = thesis_ring_estimate(model.tube, film)[0]
+        if record is not None:
+            n = row[f"michell_{record['mode_film']}_n"]
+            row["fe_k_vs_michell_percent"] = 100.0 * (record["mode_k"] - n) / n
+        row["seconds"] = time.perf_counter() - t0
         rows.append(row)
-        write_table(run.file("sweep_efo.csv"), rows)  # step by step
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    x = np.array([r["efo"] for r in rows], dtype=float)
-    for stiffness, style in (("michell", "-"), ("lame", "--")):
-        for film, color in (("inner", "tab:red"), ("outer", "tab:blue")):
+        write_table(run.file(f"sweep_{name}.csv"), rows)  # step by step
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.5))
+    x = np.array([r[name] for r in rows], dtype=float)
+    for film, color in (("inner", "tab:red"), ("outer", "tab:blue")):
+        for stiffness, style in (("michell", "-"), ("lame", "--")):
             y = np.array([np.nan if r[f"{stiffness}_{film}_mu"] is None else r[f"{stiffness}_{film}_mu"] for r in rows])
             ax.plot(x, y, style, color=color, label=f"analysis ({stiffness}), {film} film")
+        bx.plot(x, [r[f"michell_{film}_n"] for r in rows], "-", color=color, label=f"Michell, {film}")
+        bx.plot(x, [r[f"thesis_{film}_n"] for r in rows], ":", color=color, label=f"thesis eq. 4-1, {film}")
     for r in rows:
         if r["fe_mu_cr"] is not None:
-            ax.plot(r["efo"], r["fe_mu_cr"], "o", color="tab:red" if r["fe_film"] == "inner" else "tab:blue")
+            color = "tab:red" if r["fe_film"] == "inner" else "tab:blue"
+            ax.plot(r[name], r["fe_mu_cr"], "o", color=color)
+            bx.plot(r[name], r["fe_k"], "o", color=color)
+    ax.axhline(base.tube().mu_at_volume_fraction(0.7), color="gray", lw=0.8, label="70 % of a free gel")
     ax.plot([], [], "ko", label="FE onset (colour: film)")
-    ax.set_xscale("log")
-    ax.set_xlabel("Efo/Es")
+    bx.plot([], [], "ko", label="FE wave number at onset")
+    for a in (ax, bx):
+        a.set_xscale("log")
+        a.set_xlabel(name)
+        a.legend(fontsize=7)
     ax.set_ylabel("onset mu (kT)")
-    ax.set_title(f"Efi/Es = {base.efi:g}: the film with the higher onset mu buckles first")
-    ax.legend(fontsize=7)
+    bx.set_ylabel("wave number")
+    fig.suptitle(f"{SWEEPS[name][1]}; Efi/Es = {base.efi:g}, Efo/Es = {base.efo:g}, Ri/tfi = {base.ri_tfi:g}, "
+                 f"Ro/tfo = {base.ro_tfo:g}", fontsize=8)
     fig.tight_layout()
-    fig.savefig(run.file("sweep_efo.png"), dpi=130)
+    fig.savefig(run.file(f"sweep_{name}.png"), dpi=130)
     plt.close(fig)
     return rows
 
@@ -599,7 +661,11 @@ def _main(argv=None):
                         help="teeth where the wave amplitude is at least this many film thicknesses")
     parser.add_argument("--onset-only", action="store_true",
                         help="stop after the located onset (no post-buckling path)")
-    parser.add_argument("--sweep", choices=("efo", "convergence"), default=None)
+    parser.add_argument("--sweep", choices=(*SWEEPS, "convergence"), default=None,
+                        help="onset against one parameter (" + "; ".join(f"{k}: {v[1]}" for k, v in SWEEPS.items())
+                        + ") or the onset at several resolutions")
+    parser.add_argument("--values", type=float, nargs="+", default=None,
+                        help="values of the swept parameter (default: the sweep's own)")
     parser.add_argument("--switch-amplitude", type=float, default=0.25,
                         help="amplitude of the first buckled state, in thicknesses of the buckling film")
     parser.add_argument("--threads", type=int, default=1,
@@ -628,11 +694,12 @@ def _main(argv=None):
         print(json.dumps({k: summary.get(k) for k in ("onset", "final", "seconds")}, indent=1, default=str))
         return summary
     run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep})
-    if args.sweep == "efo":
-        values = (1.0, 8.8) if quick else (1.0, 3.0, 5.8, 7.23, 8.8, 20.0, 100.0)
-        rows = sweep_efo(scene, res, run, values, progress)
-        switch = {stiffness: analysis_switch_point(scene, stiffness) for stiffness in ("michell", "lame")}
-        run.write_json("switch_point.json", switch)
+    if args.sweep in SWEEPS:
+        values = args.values or (SWEEPS[args.sweep][0][::3] if quick else SWEEPS[args.sweep][0])
+        rows = sweep_parameter(scene, res, run, args.sweep, values, progress)
+        if args.sweep == "efo":
+            switch = {stiffness: analysis_switch_point(scene, stiffness) for stiffness in ("michell", "lame")}
+            run.write_json("switch_point.json", {**switch, "zone_michell": double_onset_zone(scene)})
         return rows
     resolutions = ([Resolution(64, 2, 0.5), Resolution(96, 2, 0.5)] if quick else
                    [Resolution(64, 2, 0.5), Resolution(96, 2, 0.5), Resolution(128, 2, 0.5),

@@ -11,7 +11,8 @@ from ngsolve.meshes import Make1DMesh
 
 import geometries as geo
 from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp
-from ngsgel.film_tube import FILM_INNER, FILM_OUTER, FilmTube, RadialTube, gel_plane_strain_moduli, ring_onset
+from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, FilmTube, RadialTube, gel_plane_strain_moduli, linear_film_stresses,
+                              linear_switch, ring_onset)
 from ngsgel.kinematics import PolarPlaneStrain
 from ngsgel.supports import pin_rigid_modes
 
@@ -83,6 +84,37 @@ def test_radial_model_is_converged(tube, radial_reference):
     assert free < radial_reference.volume_fraction < 1.0
     # shrinking compresses both films (positive hoop forces)
     assert radial_reference.N_inner > 0 and radial_reference.N_outer > 0
+
+
+def test_linear_film_stresses_are_the_small_shrink_limit(tube):
+    """The linear pre-buckling film stresses (three bonded Lame cylinders, thesis eq. 4-4) with
+    the gel's drained moduli are the limit of the nonlinear radial model for a small shrink
+    (error of order mu: 4e-4 at mu = -1e-6); in the thin-film, incompressible limit their ratio
+    is the closed form ``(Efi/Efo)(g - alpha_o)/(g + alpha_i)``, ``g = 2G``."""
+    G, nu = gel_plane_strain_moduli(tube.gel, 0.0, tube.lam0)
+    s_i, s_o = linear_film_stresses(tube, E_gel=2 * G * (1 + nu), nu_gel=nu)
+    mu = -1e-6
+    state = RadialTube(tube, order=4, gel_cells=64).solve(mu)
+    shrink = 1.0 - tube.gel.lam_plane_strain(mu, tube.lam0) / tube.lam0
+    assert state.sigma_inner == pytest.approx(shrink * s_i, rel=1e-3)
+    assert state.sigma_outer == pytest.approx(shrink * s_o, rel=1e-3)
+    thin = FilmTube(Ri=1.0, Ro=2.0, tfi=1e-5, tfo=1e-5, Efi=2.5e4 * ES, Efo=5e3 * ES)
+    s_i, s_o = linear_film_stresses(thin, E_gel=ES, nu_gel=0.5)
+    g, bar = 2 * ES / 3, 1 / (1 - thin.nu_film**2)
+    a_i, a_o = bar * thin.Efi * thin.tfi / thin.Ri, bar * thin.Efo * thin.tfo / thin.Ro
+    assert s_i / s_o == pytest.approx(thin.Efi / thin.Efo * (g - a_o) / (g + a_i), rel=1e-4)
+
+
+def test_linear_switch_thesis_lame_closed_form():
+    """The thesis's switch with its Lame stiffness, nu_s = 0.5 and thin films of equal thickness
+    has a closed form: K_i/K_o = Ri/Ro, so the critical stress ratio is sqrt(Efi Ri/(Efo Ro)) and
+    the switch solves (Efi/Efo)(g - alpha_o)/(g + alpha_i) = sqrt(Efi Ri/(Efo Ro))."""
+    t, efi = 1e-4, 2500.0
+    thin = FilmTube(Ri=1.0, Ro=2.0, tfi=t, tfo=t, Efi=efi * ES, Efo=ES)
+    efo = linear_switch(thin, E_gel=ES, nu_gel=0.5, stiffness="lame") / ES
+    g, bar = 2 / 3, 1 / (1 - thin.nu_film**2)
+    a_i, a_o = bar * efi * t, bar * efo * t / 2
+    assert efi / efo * (g - a_o) / (g + a_i) == pytest.approx(math.sqrt(efi / (2 * efo)), rel=1e-3)
 
 
 def pinned_annulus(tube, radius):
