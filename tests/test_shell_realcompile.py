@@ -1,0 +1,50 @@
+"""GelShell compiled to C++ (``realcompile=True``): the same residual and tangent as the
+interpreted symbolic derivatives, on a coarse bent and swollen half cap."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+
+from geometries import cap_midsurface
+from ngsgel import FloryRehnerGel
+from ngsgel.shell import GelShell
+from ngsgel.stability import free_matrix
+
+GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
+
+
+@pytest.mark.slow  # the C++ compilation alone takes 30-100 s
+@pytest.mark.skipif(shutil.which("c++") is None and shutil.which("g++") is None, reason="needs a C++ compiler")
+def test_compiled_shell_has_the_same_residual_and_tangent():
+    bundle = cap_midsurface(H=0.3, maxh=0.5, apex_radius=0.1, curve_order=2, half=True)
+    shells = []
+    for realcompile in (False, True):
+        shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(-0.05), thickness=0.02, mu=-0.04, order=2,
+                         realcompile=realcompile)
+        shell.clamp("base")
+        shell.symmetry("sym", normal="y")
+        shell.form  # build (compiles when asked to)
+        shells.append(shell)
+    # a generic admissible state: the reference (thickness stretches 1) plus a random perturbation
+    rng = np.random.default_rng(3)
+    state = shells[0].state.FV().NumPy() + 1e-3 * rng.standard_normal(shells[0].state.size) * shells[0].free_mask
+    results = []
+    for shell in shells:
+        shell.state.FV().NumPy()[:] = state
+        r = shell.state.CreateVector()
+        shell.residual(shell.state, r)
+        K = free_matrix(shell.tangent(shell.state), shell.free_mask)
+        results.append((r.FV().NumPy()[shell.free_mask].copy(), K))
+    (r0, K0), (r1, K1) = results
+    assert np.linalg.norm(r1 - r0) <= 1e-10 * np.linalg.norm(r0)
+    assert abs(K1 - K0).max() <= 1e-10 * abs(K0).max()
+
+
+def test_realcompile_must_be_a_bool():
+    bundle = cap_midsurface(H=0.3, maxh=0.5, curve_order=2)
+    with pytest.raises(ValueError, match="realcompile"):
+        GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=0.02, realcompile="yes")
