@@ -210,18 +210,19 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
         if negative() > 0:
             p.restore_state(saved)
             p.mu.Set(model.tube.mu0)
+    # absolute floor as the driver's: a solve starting next to its solution cannot reduce a
+    # round-off residual by a relative factor (also for the driver's first solve, at an already
+    # converged state: with p = 3 its relative target 1e-27 lay below the round-off 1e-16)
+    atol = 1e-10 * span * step_fraction * float(np.linalg.norm(load_rate(p, p.mu).residual))
     # the exact negative count at every step (one LDL^T, ~0.5 s), no spectrum (~10 s)
     result = follow_path(
         p, p.mu, method="natural", step=span * step_fraction, max_step=span * step_fraction,
         target=model.mu_end, qoi={**model.qoi(), "negative_count": negative, "phase_pin_reaction": lambda: math.nan}, history=history, progress=progress,
-        keep_states=True, stop=lambda pt: pt.qoi["negative_count"] > 0)
+        keep_states=True, stop=lambda pt: pt.qoi["negative_count"] > 0, newton_options={"atol": atol})
     if result.points[0].qoi["negative_count"]:
         raise RuntimeError("the first checked state is unstable although it was checked stable")
     if not result.points[-1].qoi["negative_count"]:
         return None, None
-    # absolute floor as the driver's: a solve starting next to its solution cannot reduce a
-    # round-off residual by a relative factor
-    atol = 1e-10 * span * step_fraction * float(np.linalg.norm(load_rate(p, p.mu).residual))
     a, b = result.points[-2], result.points[-1]
     lo, hi = (a.parameter, a.state), (b.parameter, b.state)  # stable, unstable
     while abs(hi[0] - lo[0]) > tol_fraction * span:
@@ -606,19 +607,37 @@ def sweep_parameter(base: Scene, res: Resolution, run: RunDirectory, name: str, 
     return rows
 
 
+def parse_resolution(text: str) -> Resolution:
+    """``n_theta:order:maxh:film_layers`` (command line of ``--sweep convergence``)."""
+    parts = text.split(":")
+    if len(parts) != 4:
+        raise ValueError(f"resolutions must read n_theta:order:maxh:film_layers, got {text!r}")
+    res = Resolution(int(parts[0]), int(parts[1]), float(parts[2]), int(parts[3]))
+    check_resolution(res)
+    return res
+
+
+CONVERGENCE_QUICK = [Resolution(64, 2, 0.5), Resolution(96, 2, 0.5)]
+CONVERGENCE = [Resolution(96, 2, 0.5), Resolution(128, 2, 0.3), Resolution(256, 2, 0.2), Resolution(384, 2, 0.15),
+               Resolution(512, 2, 0.1), Resolution(256, 3, 0.2), Resolution(256, 2, 0.2, 3)]
+
+
 def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=None) -> list[dict]:
     """Onset mu and wave numbers of the critical mode at several resolutions, with wall times."""
     rows = []
     start_mu = check_start(analysis(scene, scene.tube().mu_at_volume_fraction(scene.volume), ("michell",)))
     for res in resolutions:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         model = GearModel(scene, res)
         record, _ = onset(model, progress=progress, start_mu=start_mu)
         rows.append({**asdict(res), "ndof": model.problem.space.ndof, "mu_cr": record and record["mu_cr"],
                      "mode_film": record and record["mode_film"], "k_inner": record and record["mode_k_inner"],
                      "k_outer": record and record["mode_k_outer"],
                      "volume_cr": record and record["volume_fraction_cr"],
-                     "seconds": time.perf_counter() - t0})
+                     "negative_after": record and record["negative_after"],
+                     "seconds": time.perf_counter() - t0,
+                     # the machine is shared: CPU time of the (single-threaded) run is the fair cost
+                     "cpu_seconds": time.process_time() - c0})
         write_table(run.file("convergence.csv"), rows)
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot([r["ndof"] for r in rows], [r["mu_cr"] for r in rows], "o-")
@@ -666,6 +685,9 @@ def _main(argv=None):
                         + ") or the onset at several resolutions")
     parser.add_argument("--values", type=float, nargs="+", default=None,
                         help="values of the swept parameter (default: the sweep's own)")
+    parser.add_argument("--resolutions", nargs="+", default=None, metavar="N:P:H:L",
+                        help="resolutions of --sweep convergence as n_theta:order:maxh:film_layers "
+                             "(default: the table of docs/gears.md)")
     parser.add_argument("--switch-amplitude", type=float, default=0.25,
                         help="amplitude of the first buckled state, in thicknesses of the buckling film")
     parser.add_argument("--threads", type=int, default=1,
@@ -701,9 +723,10 @@ def _main(argv=None):
             switch = {stiffness: analysis_switch_point(scene, stiffness) for stiffness in ("michell", "lame")}
             run.write_json("switch_point.json", {**switch, "zone_michell": double_onset_zone(scene)})
         return rows
-    resolutions = ([Resolution(64, 2, 0.5), Resolution(96, 2, 0.5)] if quick else
-                   [Resolution(64, 2, 0.5), Resolution(96, 2, 0.5), Resolution(128, 2, 0.5),
-                    Resolution(96, 3, 0.5), Resolution(192, 2, 0.3)])
+    if args.resolutions:
+        resolutions = [parse_resolution(text) for text in args.resolutions]
+    else:
+        resolutions = CONVERGENCE_QUICK if quick else CONVERGENCE
     return sweep_convergence(scene, resolutions, run, progress)
 
 
