@@ -34,14 +34,28 @@ RECTANGLE_BOUNDARIES = (LEFT, RIGHT, BOTTOM, TOP)
 BLOCK_BOUNDARIES = (LEFT, RIGHT, FRONT, BACK, BOTTOM, TOP)
 
 
-def rectangle_face(x0: float, y0: float, width: float, height: float) -> occ.Face:
-    """OCC rectangle, face ``"gel"``, edges ``"left"``, ``"right"``, ``"bottom"``, ``"top"``."""
-    face = occ.WorkPlane().MoveTo(x0, y0).Rectangle(width, height).Face()
+def rectangle_face(x0: float, y0: float, width: float, height: float, *,
+                   top_split: float | None = None) -> occ.Face:
+    """OCC rectangle, face ``"gel"``, edges ``"left"``, ``"right"``, ``"bottom"``, ``"top"``.
+    ``top_split`` (``0 < top_split < width``): the top is two edges, both ``"top"``, meeting at
+    ``x0 + top_split`` (so that each can get its own mesh size)."""
+    if top_split is None:
+        face = occ.WorkPlane().MoveTo(x0, y0).Rectangle(width, height).Face()
+    else:
+        if not 0 < top_split < width:
+            raise ValueError(f"top_split must be in (0, width={width}), got {top_split!r}")
+        face = (occ.WorkPlane().MoveTo(x0, y0).LineTo(x0 + width, y0).LineTo(x0 + width, y0 + height)
+                .LineTo(x0 + top_split, y0 + height).LineTo(x0, y0 + height).Close().Face())
     face.name = GEL
     face.edges.Min(occ.X).name = LEFT
     face.edges.Max(occ.X).name = RIGHT
     face.edges.Min(occ.Y).name = BOTTOM
-    face.edges.Max(occ.Y).name = TOP
+    if top_split is None:
+        face.edges.Max(occ.Y).name = TOP
+    else:
+        for edge in face.edges:
+            if abs(edge.center.y - (y0 + height)) <= 1e-9 * height:
+                edge.name = TOP
     return face
 
 

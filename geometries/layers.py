@@ -113,18 +113,35 @@ def _apply(ngmesh, profile: Profile | None, thickness: float, dim: int) -> None:
 def layer_plane(*, width: float, thickness: float, maxh: float,
                 top_maxh: float | None = None, grading: float = 0.3,
                 amplitude: float = 0.0, wavelength: float | None = None,
-                seed: int | None = None, quad: bool = False) -> MeshBundle:
+                seed: int | None = None, quad: bool = False,
+                corner_maxh: float | None = None, corner_length: float | None = None) -> MeshBundle:
     """Plane-strain layer ``[0, width] x [0, thickness]`` on a substrate at y = 0.
 
     ``|amplitude| < thickness``; ``wavelength > 0`` is needed when ``amplitude != 0``
     (and ``<= width`` with a ``seed``).  Region ``"gel"``; boundaries ``"bottom"``,
     ``"top"``, ``"left"``, ``"right"``.
+
+    ``corner_maxh`` with ``corner_length``: a finer size on the part ``x < corner_length``
+    of the top (the top is split there into two edges, both named ``"top"``), graded into
+    the bulk: resolves a feature at the top-left corner, e.g. the tip of a crease on the
+    mirror line x = 0, without refining the whole surface.
     """
     width = require_positive("width", width)
     top_h = _top_size(thickness, maxh, top_maxh, amplitude)
     profile, integral = _imperfection(amplitude, wavelength, seed, (width,))
-    face = rectangle_face(0.0, 0.0, width, thickness)
-    face.edges.Max(occ.Y).maxh = top_h
+    if (corner_maxh is None) != (corner_length is None):
+        raise ValueError("corner_maxh and corner_length go together, got "
+                         f"corner_maxh={corner_maxh!r}, corner_length={corner_length!r}")
+    if corner_maxh is None:
+        face = rectangle_face(0.0, 0.0, width, thickness)
+        face.edges.Max(occ.Y).maxh = top_h
+    else:
+        require_positive("corner_maxh", corner_maxh)
+        require_below("corner_length", require_positive("corner_length", corner_length), "width", width)
+        face = rectangle_face(0.0, 0.0, width, thickness, top_split=corner_length)
+        for edge in face.edges:
+            if edge.name == TOP:
+                edge.maxh = min(top_h, corner_maxh) if edge.center.x < corner_length else top_h
     geometry = occ.OCCGeometry(face, dim=2)
     ngmesh = generate(geometry, maxh=maxh, grading=grading, quad_dominated=quad)
     _apply(ngmesh, profile, thickness, 2)
@@ -133,7 +150,8 @@ def layer_plane(*, width: float, thickness: float, maxh: float,
                       exact_measure=area,
                       params=dict(width=width, thickness=thickness, maxh=maxh,
                                   top_maxh=top_maxh, grading=grading, amplitude=amplitude,
-                                  wavelength=wavelength, seed=seed, quad=quad),
+                                  wavelength=wavelength, seed=seed, quad=quad,
+                                  corner_maxh=corner_maxh, corner_length=corner_length),
                       boundaries=RECTANGLE_BOUNDARIES, regions=(GEL,),
                       region_measures={GEL: area})
 

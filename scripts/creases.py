@@ -74,6 +74,10 @@ class Setup:
     width: float = 0.2
     amplitude: float = 0.01  # of the trough, as a fraction of the width W
     top_h: float = 0.01  # element size on the surface
+    # finer surface size on the part x < tip_length of the top, where the crease tip on the mirror
+    # line x = 0 forms (None: top_h everywhere); the onset is set by the resolution there
+    tip_h: float | None = None
+    tip_length: float = 0.04
     maxh: float = 0.05  # element size in the bulk
     penalty: float = 1e3  # contact stiffness in units of G / top_h
     ramp: float = 1e-5  # duration of the immersion ramp
@@ -103,6 +107,11 @@ class Setup:
             raise ValueError(f"top_h must be <= width/4 = {self.width / 4:g}, got {self.top_h!r}")
         if not self.top_h <= self.maxh:
             raise ValueError(f"top_h must be <= maxh = {self.maxh:g}, got {self.top_h!r}")
+        if self.tip_h is not None:
+            if not (isinstance(self.tip_h, (int, float)) and 0 < self.tip_h <= self.top_h):
+                raise ValueError(f"tip_h must be None or in (0, top_h = {self.top_h:g}], got {self.tip_h!r}")
+            if not (isinstance(self.tip_length, (int, float)) and 0 < self.tip_length <= self.width / 2):
+                raise ValueError(f"tip_length must be in (0, width/2 = {self.width / 2:g}], got {self.tip_length!r}")
         FloryRehnerGel(Nv=self.Nv, chi=self.chi).lam_free(self.mu0)  # raises ValueError on mu0
 
     @property
@@ -118,10 +127,16 @@ class Setup:
         """Thickness over lateral stretch of the laterally constrained layer at ``mu``."""
         return self.gel.lam_constrained(mu, self.lam0) / self.lam0
 
+    @property
+    def surface_h(self) -> float:
+        """The smallest element size on the top (at the crease tip when ``tip_h`` is set)."""
+        return self.top_h if self.tip_h is None else self.tip_h
+
     def mesh(self, *, imperfect: bool = True) -> ngs.Mesh:
         a = self.amplitude * self.width if imperfect else 0.0
+        corner = {} if self.tip_h is None else {"corner_maxh": self.tip_h, "corner_length": self.tip_length}
         return layer_plane(width=self.width, thickness=self.thickness, maxh=self.maxh, top_maxh=self.top_h,
-                           amplitude=-a, wavelength=2 * self.width if a else None).mesh
+                           amplitude=-a, wavelength=2 * self.width if a else None, **corner).mesh
 
     def add_surface_tension(self, prob) -> None:
         """Surface energy ``gamma |F' t|`` on the top (none when ``surface_tension`` is 0)."""
@@ -129,7 +144,8 @@ class Setup:
             prob.add_surface_energy("top", surface_tension_density(self.gamma))
 
     def add_contact(self, prob) -> None:
-        k = self.penalty * self.gel.shear_modulus(self.lam0) / self.top_h
+        # stiff against the smallest surface elements, where the faces meet
+        k = self.penalty * self.gel.shear_modulus(self.lam0) / self.surface_h
         prob.add_surface_energy("top", plane_contact(component=0, position=0.0, side=1, penalty=k))
         prob.add_surface_energy("top", plane_contact(component=0, position=self.width, side=-1, penalty=k))
 
@@ -263,7 +279,7 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
         state["max_crossings"] = max(state["max_crossings"], surf["self_crossings"])
         creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
         interior = surf["self_crossings"] > 0
-        near_mirror = min(surf["crossing_X"], setup.width - surf["crossing_X"]) < 2 * setup.top_h if interior else False
+        near_mirror = min(surf["crossing_X"], setup.width - surf["crossing_X"]) < 2 * setup.surface_h if interior else False
         if interior:
             # The surface passed through itself within this step: next to a mirror line the crease
             # there closed but its faces crossed inside the first two surface elements (the curved
@@ -468,7 +484,7 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
         ramp(prob, prob.mu, mu_start, step=0.05)
     except RampError as err:  # the groove snapped already: the last converged mu is the threshold
         last = prob.mu.Get()
-        return {"amplitude": setup.amplitude, "top_h": setup.top_h, "ndof": prob.space.ndof,
+        return {"amplitude": setup.amplitude, "top_h": setup.top_h, "tip_h": setup.tip_h, "ndof": prob.space.ndof,
                 "wall_seconds": time.perf_counter() - wall0, "message": str(err), "mu": last,
                 "ratio": setup.ratio(last), "how": "snap before the start ratio (no converged state beyond)",
                 "path": []}
@@ -503,7 +519,7 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
         if path and path[0].get("lowest_eigenvalue") is not None:
             found.update(eigenvalue_first=path[0]["lowest_eigenvalue"], eigenvalue_last=path[-1]["lowest_eigenvalue"],
                          fold_mu=fold, fold_ratio=None if fold is None or fold >= mu_end else setup.ratio(fold))
-    return {"amplitude": setup.amplitude, "top_h": setup.top_h, "ndof": prob.space.ndof,
+    return {"amplitude": setup.amplitude, "top_h": setup.top_h, "tip_h": setup.tip_h, "ndof": prob.space.ndof,
             "wall_seconds": time.perf_counter() - wall0, "message": message, **found, "path": path}
 
 
@@ -572,7 +588,7 @@ def run_study(setup: Setup, out: str, *, cases: list[tuple[str, dict, float | No
             summ = run_transient(s, None, t_end=t_end, dt_max=dt_max, after_onset=1.0, quiet=True)
             onset = summ["onset"] or summ["interior_crease"] or {}
             where = (summ["onset"]["onset_kind"] if summ["onset"] else ("interior" if summ["interior_crease"] else "none"))
-            row = {"varied": kind, "crease_at": where, "top_h": s.top_h, "width": s.width, "amplitude": s.amplitude,
+            row = {"varied": kind, "crease_at": where, "top_h": s.top_h, "tip_h": s.tip_h, "width": s.width, "amplitude": s.amplitude,
                    "viscosity": s.viscosity, "surface_tension": s.surface_tension, "dt_max": dt_max, "ndof": summ["ndof"], "steps": summ["steps"],
                    "wall_seconds": summ["wall_seconds"], "onset_time": onset.get("time"), "onset_previous_time": onset.get("previous_time"),
                    "onset_swollen_depth": onset.get("swollen_depth"),
@@ -608,7 +624,14 @@ SURFACE_STUDY_CASES = [("mesh", {"top_h": 0.02}, None), ("mesh", {"top_h": 0.01}
                        ("mesh+bulk", {"top_h": 0.005, "maxh": 0.0125}, None),
                        ("mesh+bulk", {"top_h": 0.0025, "maxh": 0.00625}, None),
                        ("bulk", {"top_h": 0.005, "maxh": 0.025}, None),
-                       ("bulk", {"top_h": 0.0025, "maxh": 0.0125}, None)]
+                       ("bulk", {"top_h": 0.0025, "maxh": 0.0125}, None),
+                       # only the crease tip refined (x < tip_length): the onset is set there
+                       ("tip", {"top_h": 0.005, "tip_h": 0.00125}, None),
+                       ("tip", {"top_h": 0.005, "tip_h": 0.000625}, None),
+                       ("tip", {"top_h": 0.005, "tip_h": 0.0003125}, None),
+                       ("tip", {"top_h": 0.005, "tip_h": 0.00125, "amplitude": 0.03}, None),
+                       ("tip", {"top_h": 0.005, "tip_h": 0.000625, "amplitude": 0.03}, None),
+                       ("tip", {"top_h": 0.005, "tip_h": 0.0003125, "amplitude": 0.03}, None)]
 STUDY_CASES = [("amplitude", {"amplitude": 0.05}, None), ("amplitude", {"amplitude": 0.003}, None),
                ("mesh", {"amplitude": 0.05, "top_h": 0.01}, None),
                ("width", {"width": 0.1, "top_h": 0.01, "maxh": 0.025}, None),
@@ -636,6 +659,9 @@ def main(argv=None) -> dict:
                         "(default: the middle two of the linear-threshold meshes)")
     parser.add_argument("--amplitudes", default="0.1,0.03,0.01", help="--equilibrium: imperfections (a/W) for the crease threshold")
     parser.add_argument("--top-h", type=float, default=None, help="surface element size")
+    parser.add_argument("--tip-h", type=float, default=None, help="finer surface element size on x < --tip-length, "
+                        "where the crease tip on the mirror line forms (default: top_h everywhere)")
+    parser.add_argument("--tip-length", type=float, default=Setup.tip_length)
     parser.add_argument("--maxh", type=float, default=Setup.maxh)
     parser.add_argument("--penalty", type=float, default=Setup.penalty)
     parser.add_argument("--ramp", type=float, default=Setup.ramp)
@@ -650,7 +676,7 @@ def main(argv=None) -> dict:
     quick = args.quick or bool(os.environ.get("CI"))
     top_h = args.top_h if args.top_h is not None else (0.02 if quick else Setup.top_h)
     setup = Setup(Nv=args.Nv, chi=args.chi, mu0=args.mu0, thickness=args.thickness, width=args.width,
-                  amplitude=args.amplitude, top_h=top_h, maxh=max(args.maxh, top_h) if quick else args.maxh,
+                  amplitude=args.amplitude, top_h=top_h, tip_h=args.tip_h, tip_length=args.tip_length, maxh=max(args.maxh, top_h) if quick else args.maxh,
                   penalty=args.penalty, ramp=args.ramp, viscosity=args.viscosity,
                   surface_tension=args.surface_tension)
     setup.check()

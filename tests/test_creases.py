@@ -141,6 +141,29 @@ def test_fold_estimate_extrapolates_the_vanishing_eigenvalue():
     assert creases.fold_estimate(path[::-1]) is None  # eigenvalue growing: no fold ahead
 
 
+def test_tip_refinement_puts_small_elements_only_near_the_crease_line():
+    """``tip_h`` refines the top on x < tip_length only (the crease tip on the mirror line x = 0
+    sets the onset; docs/creases.md), keeps the imperfect area and the boundary names."""
+    setup = coarse(top_h=0.01, tip_h=0.0025, tip_length=0.04, amplitude=0.1)
+    mesh = setup.mesh()
+    sizes = []
+    for el in mesh.Elements(ngs.BND):
+        if el.mat == "top":
+            xs = sorted(mesh[v].point[0] for v in el.vertices)
+            sizes.append((xs[0], xs[1] - xs[0]))
+    near = [h for x0, h in sizes if x0 < 0.04 - 1e-12]
+    far = [h for x0, h in sizes if x0 > 0.06]
+    assert max(near) <= 1.2 * 0.0025 and len(near) >= 0.04 / (1.2 * 0.0025)
+    assert min(far) >= 0.8 * 0.01
+    plain = coarse(top_h=0.01, amplitude=0.1).mesh()
+    # the nodes carry the piecewise linear interpolant of the trough a cos(k x): area error
+    # <= W h^2 a k^2 / 8 (h = top_h); the exact area is W H (the cosine integrates to 0 over W)
+    a, k = 0.1 * setup.width, np.pi / setup.width
+    assert abs(ngs.Integrate(1, mesh) - setup.width) <= setup.width * 0.01**2 * a * k**2 / 8
+    assert set(mesh.GetBoundaries()) == set(plain.GetBoundaries())
+    assert setup.surface_h == 0.0025 and coarse().surface_h == 0.02  # the contact penalty's h
+
+
 def test_bad_input_raises_before_work():
     with pytest.raises(ValueError, match="amplitude"):
         creases.Setup(amplitude=0.7).check()
@@ -150,6 +173,10 @@ def test_bad_input_raises_before_work():
         creases.Setup(top_h=0.1).check()
     with pytest.raises(ValueError, match="surface_tension"):
         creases.Setup(surface_tension=-0.01).check()
+    with pytest.raises(ValueError, match="tip_h"):
+        creases.Setup(tip_h=0.02).check()  # coarser than top_h
+    with pytest.raises(ValueError, match="corner_maxh and corner_length"):
+        layer_plane(width=0.2, thickness=1.0, maxh=0.05, corner_maxh=0.01)
     with pytest.raises(ValueError, match="gamma"):
         surface_tension(float("nan"))
     with pytest.raises(ValueError, match="penalty"):
