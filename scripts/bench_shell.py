@@ -220,7 +220,7 @@ def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc:
 
 
 def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: float = 0.8,
-                    step: float = 0.1, tol: float = 1e-3, progress=None) -> dict:
+                    step: float = 0.1, tol: float = 1e-3, progress=None, history=None) -> dict:
     """First bifurcation of the inward-indented full cap (no symmetry imposed, so any wave number
     can appear) with ``GelShell``: the apex patch's z displacement is stepped by the continuation
     driver (natural parameter; under displacement control the axisymmetric path has no limit
@@ -246,7 +246,7 @@ def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: flo
     shell.restore_state(unloaded)
     path = follow_path(shell, depth, method="natural", step=step * H, max_step=step * H, target=depth_max * H,
                        stability=StabilityOptions(eigenvalues=2, tol=tol * H), progress=progress,
-                       stop=lambda point: bool(point.negative))
+                       history=history, stop=lambda point: bool(point.negative))
     row = {"model": "shell", "order": order, "maxh": maxh, "apex_maxh": apex_maxh,
            "ndof": shell.space.ndof, "elements": bundle.mesh.GetNE(ngs.BND), "stiffness": stiffness,
            "steps": len(path.points), "found": bool(path.events),
@@ -266,7 +266,8 @@ def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: flo
 # Nv(r) = n0 + (nR - n0) (r/R)^p, reference stretched by the stiff gel's lam_free(mu0), mu0 = -1,
 # mu raised towards 0; axisymmetric + harmonic onsets k = 2 and mu_c below (docs/graded.md).
 GRADED_N0, GRADED_NR, GRADED_T, GRADED_MU0 = 1e-2, 1e-3, 0.01, -1.0
-GRADED_REFERENCE = {0.25: -0.1706, 0.75: -0.2507, 2.0: -0.2910, 10.0: -0.22366575}
+# p = 2 and 10 at 100 x 4 cells, order 3 (7826 dofs); 0.25 and 0.75 at 50 x 2 (docs/graded.md)
+GRADED_REFERENCE = {0.25: -0.1706, 0.75: -0.2507, 2.0: -0.29104928, 10.0: -0.22366575}
 PIN_RADIUS = 0.25  # inside the hoop-compressed rim where the critical modes live (r/R > 0.68)
 
 
@@ -296,47 +297,57 @@ def _axis_vertex(mesh: ngs.Mesh, axis: int, radius: float) -> tuple[float, float
     return tuple(points[best])
 
 
-def graded_plate_shell_onset(p: float, *, maxh: float, order: int, mu_max: float = -0.05, step: float = 0.05,
-                             tol: float = 1e-5, progress=None) -> dict:
-    """Onset of buckling of the free-swelling graded disk with ``GelShell`` on the full disk:
-    graded ``Nv`` as a field, ``mu`` stepped from ``mu0`` by the continuation driver with the exact
-    negative count of the tangent, the first change located to ``tol`` in ``mu``. Rigid motions
-    are removed by six statically determinate pins (centre: x, y, z; a vertex on the x axis at
-    ``PIN_RADIUS``: y, z; one on the y axis: z); the flat state loads none of them, and the
-    critical modes (outer third) hardly move there. The wave number is that of the mode's
-    deflection on the circle where it is largest."""
-    start = time.perf_counter()
+def graded_plate_shell(p: float, *, maxh: float, order: int) -> tuple[GelShell, ngs.Mesh, list]:
+    """The graded disk as a ``GelShell`` on the full disk at ``mu0`` (not yet solved): graded
+    ``Nv`` as a field, the stiff gel's free-swelling reference (as the axisymmetric section of
+    ``graded_plate.build``). Rigid motions are removed by six statically determinate pins
+    (centre: x, y, z; a vertex on the x axis at ``PIN_RADIUS``: y, z; one on the y axis: z): the
+    flat state loads none of them, and the critical modes (outer third) hardly move there.
+    Returns the shell, the mesh and the two off-centre pin points."""
     mesh = split_disk(maxh=maxh, curve_order=order)
-    mesh_seconds = time.perf_counter() - start
     stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=GEL.chi)
     gel = FloryRehnerGel(Nv=radial_grading(GRADED_N0, GRADED_NR, p, 1.0), chi=GEL.chi)
     shell = GelShell(mesh, material=gel, lam0=stiff.lam_free(GRADED_MU0), thickness=GRADED_T, mu=GRADED_MU0,
                      order=order)
-    shell.prescribe_point((0.0, 0.0, 0.0), "x", 0.0)
-    shell.prescribe_point((0.0, 0.0, 0.0), "y", 0.0)
-    shell.prescribe_point((0.0, 0.0, 0.0), "z", 0.0)
+    for component in ("x", "y", "z"):
+        shell.prescribe_point((0.0, 0.0, 0.0), component, 0.0)
     on_x, on_y = _axis_vertex(mesh, 0, PIN_RADIUS), _axis_vertex(mesh, 1, PIN_RADIUS)
     shell.prescribe_point(on_x, "y", 0.0)
     shell.prescribe_point(on_x, "z", 0.0)
     shell.prescribe_point(on_y, "z", 0.0)
+    return shell, mesh, [on_x, on_y]
+
+
+def plate_mode_wave(mode_u, mesh: ngs.Mesh) -> dict:
+    """Wave number of a plate mode's deflection on the circle (r/R = 0.3 ... 0.95) where it is
+    largest."""
+    best = None
+    for rho in np.linspace(0.3, 0.95, 14):
+        samples = sample_on_circle(mode_u[2], mesh, center=(0.0, 0.0, 0.0), radius=float(rho), n=64)
+        analysis = wave_number(samples.values, max_mode=12)
+        if best is None or analysis.amplitude > best[1].amplitude:
+            best = (float(rho), analysis)
+    return {"k": best[1].k, "purity": best[1].purity, "k_second": best[1].second, "mode_radius": best[0]}
+
+
+def graded_plate_shell_onset(p: float, *, maxh: float, order: int, mu_max: float = -0.05, step: float = 0.05,
+                             tol: float = 1e-5, progress=None, history=None) -> dict:
+    """Onset of buckling of the free-swelling graded disk (``graded_plate_shell``): ``mu`` stepped
+    from ``mu0`` by the continuation driver with the exact negative count of the tangent, the
+    first change located to ``tol`` in ``mu``; the wave number from ``plate_mode_wave``."""
+    start = time.perf_counter()
+    shell, mesh, (on_x, on_y) = graded_plate_shell(p, maxh=maxh, order=order)
+    mesh_seconds = time.perf_counter() - start
     path = follow_path(shell, shell.mu, method="natural", step=step, max_step=step, target=mu_max,
                        stability=StabilityOptions(eigenvalues=2, tol=tol), progress=progress,
-                       stop=lambda point: bool(point.negative))
+                       history=history, stop=lambda point: bool(point.negative))
     row = {"model": "shell", "p": p, "order": order, "maxh": maxh, "ndof": shell.space.ndof,
            "elements": mesh.GetNE(ngs.BND), "steps": len(path.points), "found": bool(path.events),
            "lowest_eigenvalue": [(pt.parameter, pt.eigenvalues[0]) for pt in path.points]}
     if path.events:
         event = path.events[0]
-        mode = event.mode.components[0]
-        best = None
-        for rho in np.linspace(0.3, 0.95, 14):
-            samples = sample_on_circle(mode[2], mesh, center=(0.0, 0.0, 0.0), radius=float(rho), n=64)
-            analysis = wave_number(samples.values, max_mode=12)
-            if best is None or analysis.amplitude > best[1].amplitude:
-                best = (float(rho), analysis)
         row.update(mu_critical=event.parameter, mu_error=event.parameter_error, event=event.kind,
-                   negative_after=event.negative_after, k=best[1].k, purity=best[1].purity,
-                   k_second=best[1].second, mode_radius=best[0],
+                   negative_after=event.negative_after, **plate_mode_wave(event.mode.components[0], mesh),
                    pin_reactions=[shell.reaction(on_x, "z"), shell.reaction(on_y, "z")])
     row["seconds"] = time.perf_counter() - start - mesh_seconds
     return row

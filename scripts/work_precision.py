@@ -1,0 +1,182 @@
+"""Work against precision of the thin-wall models (issue 10 item 5): error of an onset against the
+reference, against wall time, one row per model and resolution.
+
+(a) Inward-indented microlens cap (H = 0.3 R, t = 0.005 r, Nv = 1e-3, mu = 0, apex patch 0.05 R
+    moved down rigidly): depth ``d/H`` of the first non-axisymmetric bifurcation and its wave
+    number. Models: the axisymmetric solid with the harmonic (Fourier mode k) second variation
+    (``scripts/microlens_onset.py``; the Fourier reduction of the 3D solid, so it is the 3D
+    reference for the onset from an axisymmetric pre-buckling state), and ``GelShell`` on the
+    full cap (``bench_shell.cap_shell_onset``: continuation driver, exact negative count). The
+    3D thin solid is not run: its unknown count at the wall's resolution is printed instead.
+(b) Softer-edge graded disk (t/R = 0.01, Nv 1e-2 -> 1e-3, exponent p): critical ``mu`` and wave
+    number. Models: the axisymmetric section with the harmonic scan (``graded_plate.build``,
+    ``first_harmonic_instability``) and ``GelShell`` on the full disk
+    (``bench_shell.graded_plate_shell_onset``).
+
+Reference for (a): the axisymmetric solid at h = 0.01, order 3 (d/H = 0.49090, k = 3; 0.49105 at
+h = 0.02); for (b): the section at 100 x 4 cells (``bench_shell.GRADED_REFERENCE``). Errors are
+relative; a row whose onset has the wrong wave number, or none, gets no error (inf). Wall times
+exclude meshing and include the whole path, its stability checks and the location of the onset;
+they depend on the machine's load (recorded in ``params.json``).
+
+    python scripts/work_precision.py --out results/work_precision [--quick]
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from bench_shell import (APEX, GRADED_REFERENCE, H, MICROLENS_T, cap_section_stiffness, cap_shell_onset,
+                         graded_plate_shell_onset)
+
+CAP_REFERENCE = {"depth_over_H": 0.49090, "k": 3}  # axisymmetric solid, h = 0.01, order 3 (docs/benchmarks.md)
+PLATE_REFERENCE_K = 2
+
+
+def cap_section_row(*, maxh: float, order: int) -> dict:
+    """The axisymmetric solid's onset (``microlens_onset.onset``) and its patch stiffness."""
+    import microlens_onset
+
+    stiffness, _ = cap_section_stiffness(maxh=maxh, order=order)
+    onset = microlens_onset.onset(H, maxh=maxh, order=order, apex=APEX)
+    return {"case": "cap", "model": "axisymmetric", "resolution": f"h={maxh:g} order {order}",
+            "ndof": onset["ndof_section"], "seconds": onset["wall_s"], "value": onset["depth_over_H"],
+            "k": onset["k"], "stiffness": stiffness}
+
+
+def cap_shell_row(*, maxh: float, apex_maxh: float, order: int) -> dict:
+    row = cap_shell_onset(maxh=maxh, apex_maxh=apex_maxh, order=order)
+    return {"case": "cap", "model": f"shell order {order}", "resolution": f"h={maxh:g}/{apex_maxh:g} order {order}",
+            "ndof": row["ndof"], "seconds": row["seconds"], "value": row.get("depth_over_H", math.nan),
+            "k": row.get("k"), "stiffness": row["stiffness"]}
+
+
+def plate_section_row(p: float, *, maxh: float, order: int, kmax: int = 8) -> dict:
+    """Onset on the axisymmetric section of ``graded_plate`` (no axisymmetric bifurcation on the
+    softer-edge path, so a plain ramp in the soft stretch with the harmonic scan suffices)."""
+    import graded_plate
+    from ngsgel.harmonic import first_harmonic_instability
+
+    from bench_shell import GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_T
+    from ngsgel import FloryRehnerGel
+
+    start = time.perf_counter()
+    prob, stretch = graded_plate.build(n0=GRADED_N0, nR=GRADED_NR, p=p, t=GRADED_T, maxh=maxh, order=order,
+                                       mu0=GRADED_MU0)
+    end = FloryRehnerGel(Nv=min(GRADED_N0, GRADED_NR), chi=graded_plate.CHI).lam_free(0.0)
+    onset = first_harmonic_instability(prob, stretch, end, ks=list(range(1, kmax + 1)),
+                                       step=(end - stretch.Get()) / 60, tolerance=1e-7)
+    if not onset.found:
+        raise RuntimeError(f"the section of p = {p} did not buckle up to mu = 0")
+    mu_c = graded_plate.mismatch_strain(onset.parameter, GRADED_N0, GRADED_NR)[0]
+    return {"case": f"plate p={p:g}", "model": "axisymmetric", "resolution": f"h={maxh:g} order {order}",
+            "ndof": prob.space.ndof, "seconds": time.perf_counter() - start, "value": mu_c, "k": onset.k,
+            "stiffness": math.nan}
+
+
+def plate_shell_row(p: float, *, maxh: float, order: int) -> dict:
+    row = graded_plate_shell_onset(p, maxh=maxh, order=order)
+    return {"case": f"plate p={p:g}", "model": f"shell order {order}", "resolution": f"h={maxh:g} order {order}",
+            "ndof": row["ndof"], "seconds": row["seconds"], "value": row.get("mu_critical", math.nan),
+            "k": row.get("k"), "stiffness": math.nan}
+
+
+def cap_solid_unknowns(*, layers: int = 2, order: int = 2, maxh: float = 0.05) -> int:
+    """Unknowns of the 3D thin cap (prism layers) at t/r = 0.005, from its mesh only."""
+    import ngsolve as ngs
+
+    from geometries import cap_solid
+
+    mesh = cap_solid(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX).mesh
+    return ngs.VectorH1(mesh, order=order).ndof
+
+
+def with_errors(rows: list[dict]) -> list[dict]:
+    for row in rows:
+        if row["case"] == "cap":
+            reference, k_ref = CAP_REFERENCE["depth_over_H"], CAP_REFERENCE["k"]
+        else:
+            reference, k_ref = GRADED_REFERENCE[float(row["case"].split("=")[1])], PLATE_REFERENCE_K
+        right = row["k"] == k_ref and math.isfinite(row["value"])
+        row["error"] = abs(row["value"] / reference - 1) if right else math.inf
+    return rows
+
+
+def time_to(rows: list[dict], case: str, model_prefix: str, level: float = 0.01) -> float:
+    """Least wall time of a row of ``case`` whose model starts with ``model_prefix`` and whose
+    error is at most ``level`` (inf if none)."""
+    times = [r["seconds"] for r in rows if r["case"] == case and r["model"].startswith(model_prefix)
+             and r["error"] <= level]
+    return min(times, default=math.inf)
+
+
+def plot(rows: list[dict], path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = sorted({r["case"] for r in rows})
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 4.2), squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        for i, model in enumerate(sorted({r["model"] for r in rows if r["case"] == case})):
+            pts = sorted((r["seconds"], r["error"]) for r in rows if r["case"] == case and r["model"] == model
+                         and math.isfinite(r["error"]) and r["error"] > 0)
+            if pts:
+                ax.loglog(*zip(*pts), "o-", color=f"C{i}", label=model)
+        ax.axhline(0.01, color="grey", lw=0.6, ls="--")
+        ax.set_xlabel("wall time [s]")
+        ax.set_ylabel("relative error of the onset")
+        ax.set_title(case)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
+
+    parser = scene_parser(__doc__, out="results/work_precision", quick="plate p = 2 only, coarsest resolutions")
+    parser.add_argument("--plate-p", type=float, nargs="+", default=[2.0, 10.0], help="grading exponents of (b)")
+    args = parser.parse_args()
+    quick = quick_run(args)
+    run_dir = RunDirectory(args.out, params={"quick": quick, "plate_p": args.plate_p, "load": os.getloadavg()})
+    progress = Progress("work_precision")
+    # --quick: the graded plate (p = 2) at the coarsest resolution of each model (2-4 min); the
+    # full run adds the cap (the shell cap alone takes > 40 min on 2 loaded cores) and p = 10
+    plate_ps = [2.0] if quick else args.plate_p
+    jobs = []
+    if not quick:
+        jobs += [(cap_section_row, dict(maxh=0.04, order=2)), (cap_section_row, dict(maxh=0.02, order=3)),
+                 (cap_shell_row, dict(maxh=0.1, apex_maxh=0.0125, order=3))]
+    for p in plate_ps:
+        jobs += [(plate_section_row, dict(p=p, maxh=0.04, order=2)), (plate_shell_row, dict(p=p, maxh=0.3, order=3))]
+        if not quick:
+            jobs += [(plate_section_row, dict(p=p, maxh=0.02, order=3)), (plate_shell_row, dict(p=p, maxh=0.2, order=3))]
+    rows = []
+    with History(run_dir.file("work_precision.csv")) as history:
+        for job, options in jobs:
+            row = job(**options)
+            rows.append(row)
+            with_errors([row])
+            history.append(row)
+            progress(f"{row['case']:10s} {row['model']:14s} {row['resolution']:24s} {row['ndof']:7d} dofs "
+                     f"{row['seconds']:7.1f} s  value {row['value']:.5f}  k {row['k']}  error {row['error']:.2e}")
+    summary = {"rows": rows}
+    if not quick:
+        summary["cap_solid3d_unknowns_h0.05_2layers_order2"] = cap_solid_unknowns()
+        progress(f"3D thin cap (2 prism layers, order 2, h = 0.05): {summary['cap_solid3d_unknowns_h0.05_2layers_order2']} "
+                 "unknowns, not run")
+    for case in sorted({r["case"] for r in rows}):
+        shell = time_to(rows, case, "shell")
+        other = time_to(rows, case, "axisymmetric")
+        summary[f"{case}: time to 1% shell / axisymmetric"] = shell / other if math.isfinite(other) else math.nan
+        progress(f"{case}: time to 1 % error: shell {shell:.1f} s, axisymmetric {other:.1f} s, "
+                 f"ratio {shell / other:.2f}")
+    run_dir.write_json("work_precision.json", summary)
+    plot(rows, run_dir.file("work_precision.png"))
