@@ -39,6 +39,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import ngsolve as ngs  # noqa: E402
+from scipy.sparse.linalg import LinearOperator, eigsh  # noqa: E402
 
 import geometries as geo  # noqa: E402
 from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
@@ -48,7 +49,7 @@ from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube,
 from ngsgel.newton import NewtonError  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
-from ngsgel.stability import free_matrix, load_rate, mode_function, negative_count, spectrum  # noqa: E402
+from ngsgel.stability import free_matrix, load_rate, mass_matrix, mode_function, negative_count  # noqa: E402
 from ngsgel.stepping import ramp  # noqa: E402
 from ngsgel.supports import pin_rigid_modes, pin_vertex_component, vertex_dof  # noqa: E402
 
@@ -248,15 +249,15 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
     p.restore_state(hi[1])
     p.mu.Set(hi[0])
     negative_after = negative()
-    spec = spectrum(p, count=max(2, negative_after))
-    split = abs(float(spec.eigenvalues[1] - spec.eigenvalues[0])) / abs(float(spec.eigenvalues[0]))
-    phi = mirror_symmetric_mode(model, spec.modes[:, :2])
+    eigenvalues, modes = negative_modes(p, negative_after)
+    split = abs(float(eigenvalues[1] - eigenvalues[0])) / abs(float(eigenvalues[0]))
+    phi = mirror_symmetric_mode(model, modes[:, :2])
     mode = mode_function(p, phi)
     qoi = {k: f() for k, f in model.qoi().items()}
     mode_waves = {film: model.waves(mode, film) for film in ("inner", "outer")}
     located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
     record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": negative_after,
-              "eigenvalues_after": [float(v) for v in spec.eigenvalues],
+              "eigenvalues_after": [float(v) for v in eigenvalues],
               "volume_fraction_cr": qoi["volume_fraction"],
               "hoop_inner_cr": qoi["hoop_inner"], "hoop_outer_cr": qoi["hoop_outer"],
               "mode_k_inner": mode_waves["inner"]["k"], "mode_k_outer": mode_waves["outer"]["k"],
@@ -268,6 +269,41 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
         history.append({"step": "onset", "parameter": record["mu_cr"], **qoi, "negative": negative_after,
                         "events": f"onset {located} film, {record['mode_k']} waves"})
     return record, (hi[1], hi[0], mode)
+
+
+def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``negative`` negative eigenvalues (ascending) of ``K phi = omega M phi`` at a state
+    just past the onset and their modes (free-dof columns, M-orthonormal).
+
+    Shift-invert about zero with the problem's own sparse LDL^T of the tangent, not
+    ``stability.spectrum``: the bracket is so narrow that the negative eigenvalues are the ones
+    nearest zero, and zero is no eigenvalue (the inertia is known), so no shift search is needed;
+    ``spectrum``'s general SuperLU of the shifted matrix (COLAMD ordering, 47 million nonzeros in
+    its factors at 29k dofs, p = 3) took 4-6 s of the quick run, the LDL^T takes 0.05 s. Two
+    more eigenpairs than needed are computed so that the negative ones are all among them (the
+    next ones are the soft global mode of the tube and the next ring modes); a mismatch with the
+    exact count raises."""
+    free = p.free_mask
+    K = p.tangent(p.state)
+    inv = p._solver.factor(K)
+    full, out = p.state.CreateVector(), p.state.CreateVector()
+
+    def solve(v: np.ndarray) -> np.ndarray:
+        full.FV().NumPy()[:] = 0.0
+        full.FV().NumPy()[free] = np.ravel(v)
+        out.data = inv * full
+        return out.FV().NumPy()[free].copy()
+
+    n = int(np.count_nonzero(free))
+    M = free_matrix(mass_matrix(p), free)
+    values, vectors = eigsh(free_matrix(K, free), k=negative + 2, M=M, sigma=0.0, which="LM",
+                            OPinv=LinearOperator((n, n), matvec=solve, dtype=float))
+    order = np.argsort(values)
+    values, vectors = values[order], vectors[:, order]
+    if np.count_nonzero(values < 0) != negative:
+        raise RuntimeError(f"{negative} negative eigenvalues expected next to zero, found {values}")
+    # normalised as ``stability.spectrum``'s modes: phi^T M phi = volume
+    return values[:negative], vectors[:, :negative] * math.sqrt(p.integrate(ngs.CF(1.0)))
 
 
 def phase_points(model: GearModel) -> dict:
@@ -496,12 +532,17 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                                    f"(subcritical bifurcation): {switched}")
             # undamped natural steps: the first from the tangent predictor, then secant predictors
             span = abs(model.mu_end - model.tube.mu0)
-            # near the onset the amplitude grows like sqrt(mu_cr - mu): a first step of twice the
-            # switch's distance from the onset, doubled after every easy step (a fixed first step of
-            # span/48 from 0.1 t_f failed five times before it converged, 100 s of the quick run)
-            first = min(max(2 * switched["mu_past_onset_fraction"], path_step), 1 / 24)
+            # near the onset the amplitude grows like sqrt(mu_cr - mu): a first step of the switch's
+            # distance from the onset, doubled after every easy step (a fixed first step of span/48
+            # from 0.1 t_f failed five times before it converged, 100 s of the quick run; twice the
+            # switch's distance failed once at n_theta = 80, p = 3: 30 iterations, 10 s of CPU,
+            # the halved step then took 4)
+            first = min(max(switched["mu_past_onset_fraction"], path_step), 1 / 24)
+            # at most 12 Newton iterations per step: every converged step took <= 8; a failing one
+            # plateaus (residual 1e-5 for 30 iterations, 132 line-search cuts) and is better halved
             path = follow_path(p, p.mu, method="natural", step=span * first, max_step=span * path_max_step,
-                               easy_iterations=5, grow=2.0, newton_options={"atol": switched["atol"]},
+                               easy_iterations=5, grow=2.0,
+                               newton_options={"atol": switched["atol"], "maxit": 12},
                                target=model.mu_end, history=history, progress=progress,
                                # quick: stability only at the end (one LDL^T per step saved)
                                qoi={**model.qoi(), "negative_count": (lambda: math.nan) if quick else (lambda: negative_count_of(p)),
@@ -617,7 +658,13 @@ def parse_resolution(text: str) -> Resolution:
     return res
 
 
-CONVERGENCE_QUICK = [Resolution(64, 2, 0.5), Resolution(96, 2, 0.5)]
+# the quick run's resolution, from the convergence table (docs/gears.md, Efo/Es = 100): cubic
+# elements, 80 cells around (3.3 per wave), one cell across each film: onset 0.3 % from the finest
+# meshes with their 24 waves, 29,280 dofs. The previous quick mesh (96 cells, p = 2, 21,888 dofs)
+# gave 22 waves, 5 % off, and an impure post-buckled pattern; p = 2 needs 256 cells (42k dofs)
+# for 24 waves, p = 3 with 64 cells gives 23
+QUICK = Resolution(80, 3, 0.5, 1)
+CONVERGENCE_QUICK = [Resolution(64, 3, 0.5, 1), QUICK]
 CONVERGENCE = [Resolution(96, 2, 0.5), Resolution(128, 2, 0.3), Resolution(256, 2, 0.2), Resolution(384, 2, 0.15),
                Resolution(512, 2, 0.1), Resolution(256, 3, 0.2), Resolution(256, 2, 0.2, 3)]
 
@@ -697,7 +744,7 @@ def _main(argv=None):
     quick = args.quick or bool(os.environ.get("CI"))
     scene = Scene(efi=args.efi, efo=args.efo, ri_tfi=args.ri_tfi, ro_tfo=args.ro_tfo, nu_film=args.nu_film,
                   volume=args.volume)
-    default = Resolution(n_theta=96, order=2, maxh=0.5, film_layers=2) if quick else Resolution()
+    default = QUICK if quick else Resolution()
     res = Resolution(n_theta=args.n_theta or default.n_theta, order=args.order or default.order,
                      maxh=args.maxh or default.maxh, film_layers=args.film_layers or default.film_layers)
     check_scene(scene)

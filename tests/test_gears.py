@@ -190,26 +190,38 @@ def test_bad_scene_input():
         gears.main(["--volume", "1.5", "--out", "/tmp/never"])
 
 
+# Converged onset of Efo/Es = 100 (Efi/Es = 12.5, Ri/tfi = 50, Ro/tfo = 100) from the convergence
+# table of docs/gears.md: n_theta = 384 and 512 (p = 2) give mu_cr = -1.3547e-4 (same bisection
+# bracket, 1.6e-7 wide) and 256 cells with p = 3 -1.3538e-4; all fine meshes 24 waves.
+CONVERGED_MU_CR = -1.3547e-4
+CONVERGED_WAVES = 24
+
+
 def test_gears_quick_post_buckled_outer_teeth(tmp_path):
     """Coarse thesis case Efi/Es = 12.5, Efo/Es = 100 (outer teeth in the thesis), the whole run:
-    the FE onset is on the outer film as a cos/sin pair with the wave number of the
-    ring-on-foundation analysis within 10 %; the buckled branch is followed to the end (70 % for
-    a free gel) and the final gear has outer teeth only, as many as the critical mode's waves
-    (the pattern keeps its wave number on the branch), with an amplitude of 1.5-5 film
-    thicknesses (the coarse run gives 2.6; the inner film stays within 0.2 t_f of round); the
-    phase pin carries no load (1e-9 of the load scale); the coated gel keeps more than 70 %."""
+    the FE onset is on the outer film as a cos/sin pair, within 1 % of the converged onset and
+    with the converged wave number (the quick mesh was chosen for that from the convergence
+    table; the old one, 96 cells with p = 2, was 5 % off with 22 waves); the buckled branch is
+    followed to the end (70 % for a free gel) and the final gear has outer teeth only, as many as
+    the converged wave number (the pattern keeps its wave number on the branch), a pure pattern
+    (the old mesh's was modulated with the mesh period, purity 0.89), an amplitude of 1.5-5 film
+    thicknesses (2.6 measured; the inner film stays within 0.2 t_f of round) and no negative
+    eigenvalue (stable in the pinned space, as on the fine mesh); the phase pin carries no load
+    (1e-9 of the load scale); the coated gel keeps more than 70 %."""
     summary = gears.main(["--quick", "--efo", "100", "--out", str(tmp_path)])
     onset = summary["onset"]
     assert onset["mode_film"] == "outer" and onset["negative_after"] >= 2  # a pair: cos and sin
-    n_analysis = summary["analysis"]["michell_outer"]["n_continuous"]
-    assert abs(onset["mode_k"] - n_analysis) <= 0.1 * n_analysis
+    assert onset["mu_cr"] == pytest.approx(CONVERGED_MU_CR, rel=0.01)
+    assert onset["mode_k"] == CONVERGED_WAVES
     assert summary["switch"]["mu_past_onset_fraction"] > 0  # supercritical
     final = summary["final"]
     assert final["mu"] == pytest.approx(summary["mu_end"], rel=1e-12)
     assert final["type"] == "outer teeth"
-    assert final["outer"]["tooth_count"] == final["outer"]["k"] == onset["mode_k"]
+    assert final["outer"]["tooth_count"] == final["outer"]["k"] == CONVERGED_WAVES
+    assert final["outer"]["purity"] > 0.99
     assert 1.5 < final["outer"]["amplitude_over_t"] < 5.0
     assert final["inner"]["amplitude_over_t"] < 0.2
+    assert final["negative_eigenvalues"] == 0
     assert summary["path"]["phase_pin_reaction_max_relative"] < 1e-9
     assert 0.7 < final["volume_fraction"] < 0.75
     assert json.load(open(tmp_path / "summary.json"))["final"]["type"] == "outer teeth"
