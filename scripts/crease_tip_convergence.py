@@ -1,0 +1,151 @@
+"""Mesh convergence of the transient crease onset with surface energy: the geometry of the groove
+at fixed times, and the onset, for a sequence of surface meshes (docs/creases.md, "Why the onset
+did not converge").
+
+Each run is ``scripts/creases.py``'s transient problem (``creases.build_transient``, same onset
+criterion: the first step with a surface point other than the corner on the mirror plane x <= 0),
+marched with ``dt_max`` up to ``--t-fine`` and with ``--dt-fine`` after it, so that the onset is
+bracketed to ``dt_fine``. The deformed top (4 points per P2 edge) is stored at every step
+(``<out>/<label>.npz``), and the table compares, at fixed times and at the last step before the
+onset: the groove depth, the height of the tip (the corner X = 0), the radius of curvature of the
+surface at the tip (exact for the P2 edge at the corner), and the half-width x of the groove at
+fixed heights y.
+
+    python scripts/crease_tip_convergence.py --out results/crease_tip --tip-h 0.005,0.0025,0.00125
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+import ngsolve as ngs
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import creases  # noqa: E402
+from ngsgel.contact import surface_line  # noqa: E402
+from ngsgel.transient import march  # noqa: E402
+
+
+class _Done(Exception):
+    """Ends the march shortly after the onset."""
+
+
+def tip_geometry(x: np.ndarray, y: np.ndarray, points_per_edge: int = 4) -> tuple[float, float]:
+    """Tangent angle (degrees from horizontal; 0 for a mirror-symmetric smooth tip) and radius of
+    curvature at the corner X = 0, from the deformed first edge (a parabola in its parameter for
+    P2 displacements on a straight edge: the fit through its samples is exact)."""
+    s = np.arange(points_per_edge + 1) / points_per_edge
+    cx = np.polyfit(s, x[:points_per_edge + 1], 2)
+    cy = np.polyfit(s, y[:points_per_edge + 1], 2)
+    dx, dy, ddx, ddy = cx[1], cy[1], 2 * cx[0], 2 * cy[0]
+    return float(np.degrees(np.arctan2(dy, dx))), float((dx * dx + dy * dy) ** 1.5 / (dx * ddy - dy * ddx))
+
+
+def half_width(x: np.ndarray, y: np.ndarray, level: float) -> float:
+    """x of the groove face at height ``level``, walking down from the crest (nan below the tip)."""
+    j = int(np.argmax(y))
+    while j > 0 and y[j - 1] > level:
+        j -= 1
+    return float(np.interp(level, [y[j - 1], y[j]], [x[j - 1], x[j]])) if j > 0 else float("nan")
+
+
+def run(setup: creases.Setup, *, t_end: float, t_fine: float, dt_max: float, dt_fine: float,
+        times: list[float]) -> dict:
+    """March one case; the surface at every step, the onset bracket and the wall time."""
+    prob = creases.build_transient(setup)
+    rec = {"t": [], "x": [], "y": [], "swollen": []}
+    state = {"onset": None, "previous": 0.0, "X": None}
+    wall0 = time.perf_counter()
+
+    def on_step(p, r) -> None:
+        line = surface_line(p.displacement, p.mesh, "top")
+        state["X"] = line.reference[:, 0]
+        rec["t"].append(r.time)
+        rec["x"].append(line.current[:, 0])
+        rec["y"].append(line.current[:, 1])
+        rec["swollen"].append(creases.swelling_state(p, setup)["swollen_depth"])
+        if state["onset"] is None:
+            if np.any((state["X"] > 0) & (line.current[:, 0] <= 0)):  # creases.surface_state's criterion
+                state["onset"] = r.time
+            else:
+                state["previous"] = r.time
+        elif r.time > state["onset"] + 2 * dt_fine:
+            raise _Done()
+
+    kw = {"dt_min": setup.ramp * 1e-7, "on_step": on_step}
+    try:  # steps up to dt_max before t_fine (landing on the comparison times), dt_fine after
+        march(prob, t_fine, dt_start=setup.ramp / 10, dt_max=dt_max,
+              output_times=[t for t in times if t < t_fine], **kw)
+        march(prob, t_end, dt_start=dt_fine, dt_max=dt_fine, output_times=[t for t in times if t > t_fine], **kw)
+    except _Done:
+        pass
+    return {"X": state["X"], **{k: np.array(v) for k, v in rec.items()}, "onset": state["onset"],
+            "previous": state["previous"], "wall": time.perf_counter() - wall0, "ndof": prob.mixed_space.ndof}
+
+
+def describe(r: dict, times: list[float], levels: list[float]) -> list[dict]:
+    """Geometry at each comparison time and at the last step before the onset."""
+    rows = []
+    picks = [(f"t = {t:g}", int(np.argmin(abs(r["t"] - t)))) for t in times if t <= r["t"][-1]]
+    if r["onset"] is not None:
+        picks.append(("before onset", int(np.searchsorted(r["t"], r["previous"]))))
+    for label, i in picks:
+        x, y = r["x"][i], r["y"][i]
+        angle, radius = tip_geometry(x, y)
+        rows.append({"at": label, "time": float(r["t"][i]), "groove_depth": float(y.max() - y[0]),
+                     "tip_y": float(y[0]), "tip_angle_deg": angle, "tip_radius": radius,
+                     "swollen_depth": float(r["swollen"][i]),
+                     **{f"x_at_y{lv:g}": half_width(x, y, lv) for lv in levels}})
+    return rows
+
+
+def main(argv=None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default="results/crease_tip")
+    parser.add_argument("--tip-h", default="0.005,0.0025,0.00125,0.000625,0.0003125",
+                        help="surface element sizes at the crease tip (x < --tip-length), one run each")
+    parser.add_argument("--top-h", type=float, default=0.005, help="surface element size elsewhere (capped by tip-h)")
+    parser.add_argument("--tip-length", type=float, default=creases.Setup.tip_length)
+    parser.add_argument("--mu0", type=float, default=-0.1)
+    parser.add_argument("--amplitude", type=float, default=0.1)
+    parser.add_argument("--surface-tension", type=float, default=creases.SURFACE_TENSION)
+    parser.add_argument("--ramp", type=float, default=1e-3)
+    parser.add_argument("--t-end", type=float, default=2.0)
+    parser.add_argument("--t-fine", type=float, default=0.3, help="from here on steps of --dt-fine")
+    parser.add_argument("--dt-max", type=float, default=0.01)
+    parser.add_argument("--dt-fine", type=float, default=0.001)
+    parser.add_argument("--times", default="0.2,0.3,0.4", help="comparison times")
+    parser.add_argument("--levels", default="1.065,1.08,1.1", help="heights y of the half-width")
+    parser.add_argument("--threads", type=int, default=1)
+    args = parser.parse_args(argv)
+    ngs.SetNumThreads(args.threads)
+    times = [float(t) for t in args.times.split(",")]
+    levels = [float(v) for v in args.levels.split(",")]
+    os.makedirs(args.out, exist_ok=True)
+    table = []
+    for tip_h in (float(h) for h in args.tip_h.split(",")):
+        setup = creases.Setup(mu0=args.mu0, amplitude=args.amplitude, top_h=max(args.top_h, tip_h), tip_h=tip_h,
+                              tip_length=args.tip_length, surface_tension=args.surface_tension, ramp=args.ramp)
+        r = run(setup, t_end=args.t_end, t_fine=args.t_fine, dt_max=args.dt_max, dt_fine=args.dt_fine, times=times)
+        label = f"tip_h{tip_h:g}_a{args.amplitude:g}"
+        np.savez(os.path.join(args.out, label + ".npz"), **{k: v for k, v in r.items() if v is not None})
+        entry = {"tip_h": tip_h, "top_h": setup.top_h, "amplitude": args.amplitude, "ndof": r["ndof"],
+                 "onset": r["onset"], "previous": r["previous"], "wall_seconds": r["wall"],
+                 "geometry": describe(r, times, levels)}
+        table.append(entry)
+        print(f"tip_h {tip_h:g}: onset in ({r['previous']:.4f}, {r['onset']}], {r['ndof']} dofs, {r['wall']:.0f} s")
+        for g in entry["geometry"]:
+            print("   " + ", ".join(f"{k} {v:.5g}" if isinstance(v, float) else f"{k} {v}" for k, v in g.items()))
+        with open(os.path.join(args.out, "table.json"), "w") as f:
+            json.dump(table, f, indent=1)
+    return table
+
+
+if __name__ == "__main__":
+    main()
