@@ -272,17 +272,16 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
 
 
 def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ``negative`` negative eigenvalues (ascending) of ``K phi = omega M phi`` at a state
-    just past the onset and their modes (free-dof columns, M-orthonormal).
+    """The ``negative`` negative eigenvalues (ascending, at least two) of ``K phi = omega M phi``
+    at a state just past the onset and their modes (free-dof columns).
 
     Shift-invert about zero with the problem's own sparse LDL^T of the tangent, not
-    ``stability.spectrum``: the bracket is so narrow that the negative eigenvalues are the ones
-    nearest zero, and zero is no eigenvalue (the inertia is known), so no shift search is needed;
-    ``spectrum``'s general SuperLU of the shifted matrix (COLAMD ordering, 47 million nonzeros in
-    its factors at 29k dofs, p = 3) took 4-6 s of the quick run, the LDL^T takes 0.05 s. Two
-    more eigenpairs than needed are computed so that the negative ones are all among them (the
-    next ones are the soft global mode of the tube and the next ring modes); a mismatch with the
-    exact count raises."""
+    ``stability.spectrum``: zero is no eigenvalue (the inertia is known), so no shift search is
+    needed; ``spectrum``'s general SuperLU of the shifted matrix (COLAMD ordering, 47 million
+    nonzeros in its factors at 29k dofs, p = 3) took 4-6 s of the quick run, the LDL^T 0.05 s.
+    The negative ones need not be the nearest to zero (n_theta = 256: the pair at -8.2e-5, the
+    next ring modes at +2.8e-5, the soft global mode at 3.8e-5), so eigenpairs are asked for
+    until the exact count of negative ones is among them; a mismatch after that raises."""
     free = p.free_mask
     K = p.tangent(p.state)
     inv = p._solver.factor(K)
@@ -296,14 +295,22 @@ def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
 
     n = int(np.count_nonzero(free))
     M = free_matrix(mass_matrix(p), free)
-    values, vectors = eigsh(free_matrix(K, free), k=negative + 2, M=M, sigma=0.0, which="LM",
-                            OPinv=LinearOperator((n, n), matvec=solve, dtype=float))
-    order = np.argsort(values)
-    values, vectors = values[order], vectors[:, order]
-    if np.count_nonzero(values < 0) != negative:
+    A, OPinv = free_matrix(K, free), LinearOperator((n, n), matvec=solve, dtype=float)
+    # more eigenpairs (and Lanczos vectors, which also helps with exactly degenerate pairs) until
+    # all negative ones are found
+    for extra in (2, 6, 14):
+        values, vectors = eigsh(A, k=negative + extra, M=M, sigma=0.0, which="LM", OPinv=OPinv,
+                                ncv=max(2 * (negative + extra) + 1, 20))
+        order = np.argsort(values)
+        values, vectors = values[order], vectors[:, order]
+        if np.count_nonzero(values < 0) == negative:
+            break
+    else:
         raise RuntimeError(f"{negative} negative eigenvalues expected next to zero, found {values}")
-    # normalised as ``stability.spectrum``'s modes: phi^T M phi = volume
-    return values[:negative], vectors[:, :negative] * math.sqrt(p.integrate(ngs.CF(1.0)))
+    # normalised as ``stability.spectrum``'s modes: phi^T M phi = volume. At least two: a pair split
+    # by the mesh can cross one member at a time (48 cells, p = 4: n = 24 = 48/2)
+    keep = max(negative, 2)
+    return values[:keep], vectors[:, :keep] * math.sqrt(p.integrate(ngs.CF(1.0)))
 
 
 def phase_points(model: GearModel) -> dict:
@@ -665,8 +672,12 @@ def parse_resolution(text: str) -> Resolution:
 # for 24 waves, p = 3 with 64 cells gives 23
 QUICK = Resolution(80, 3, 0.5, 1)
 CONVERGENCE_QUICK = [Resolution(64, 3, 0.5, 1), QUICK]
-CONVERGENCE = [Resolution(96, 2, 0.5), Resolution(128, 2, 0.3), Resolution(256, 2, 0.2), Resolution(384, 2, 0.15),
-               Resolution(512, 2, 0.1), Resolution(256, 3, 0.2), Resolution(256, 2, 0.2, 3)]
+# the table of docs/gears.md: cells around (p = 2), cells across the films, order at few cells
+CONVERGENCE = [Resolution(96, 2, 0.5, 2), Resolution(128, 2, 0.5, 1), Resolution(192, 2, 0.5, 1),
+               Resolution(256, 2, 0.2, 1), Resolution(256, 2, 0.2, 2), Resolution(256, 2, 0.2, 3),
+               Resolution(384, 2, 0.15, 2), Resolution(512, 2, 0.1, 2), Resolution(64, 3, 0.5, 1), QUICK,
+               Resolution(96, 3, 0.5, 1), Resolution(256, 3, 0.2, 2), Resolution(48, 4, 0.5, 1),
+               Resolution(64, 4, 0.5, 1)]
 
 
 def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=None) -> list[dict]:
