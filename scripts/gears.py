@@ -279,9 +279,10 @@ def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
     ``stability.spectrum``: zero is no eigenvalue (the inertia is known), so no shift search is
     needed; ``spectrum``'s general SuperLU of the shifted matrix (COLAMD ordering, 47 million
     nonzeros in its factors at 29k dofs, p = 3) took 4-6 s of the quick run, the LDL^T 0.05 s.
-    The negative ones need not be the nearest to zero (n_theta = 256: the pair at -8.2e-5, the
-    next ring modes at +2.8e-5, the soft global mode at 3.8e-5), so eigenpairs are asked for
-    until the exact count of negative ones is among them; a mismatch after that raises."""
+    Lanczos can miss negative ones (n_theta = 256, p = 2, count 2: the four eigenvalues found
+    nearest to zero were -8.2e-5, +2.8e-5 twice and +3.8e-5, so a member of the critical pair
+    lay farther out or was missed as a degenerate copy), so eigenpairs are asked for until the
+    exact count of negative ones is among them; a mismatch after that raises."""
     free = p.free_mask
     K = p.tangent(p.state)
     inv = p._solver.factor(K)
