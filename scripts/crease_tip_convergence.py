@@ -30,21 +30,11 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import creases  # noqa: E402
 from ngsgel.contact import surface_line  # noqa: E402
 from ngsgel.transient import march  # noqa: E402
+from creases import tip_geometry  # noqa: E402
 
 
 class _Done(Exception):
     """Ends the march shortly after the onset."""
-
-
-def tip_geometry(x: np.ndarray, y: np.ndarray, points_per_edge: int = 4) -> tuple[float, float]:
-    """Tangent angle (degrees from horizontal; 0 for a mirror-symmetric smooth tip) and radius of
-    curvature at the corner X = 0, from the deformed first edge (a parabola in its parameter for
-    P2 displacements on a straight edge: the fit through its samples is exact)."""
-    s = np.arange(points_per_edge + 1) / points_per_edge
-    cx = np.polyfit(s, x[:points_per_edge + 1], 2)
-    cy = np.polyfit(s, y[:points_per_edge + 1], 2)
-    dx, dy, ddx, ddy = cx[1], cy[1], 2 * cx[0], 2 * cy[0]
-    return float(np.degrees(np.arctan2(dy, dx))), float((dx * dx + dy * dy) ** 1.5 / (dx * ddy - dy * ddx))
 
 
 def half_width(x: np.ndarray, y: np.ndarray, level: float) -> float:

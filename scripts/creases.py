@@ -153,6 +153,21 @@ class Setup:
 # ----------------------------------------------------------------------------- diagnostics
 
 
+def tip_geometry(x: np.ndarray, y: np.ndarray, points_per_edge: int = 4) -> tuple[float, float]:
+    """Tangent angle (degrees from horizontal; 0 for a mirror-symmetric smooth tip) and radius of
+    curvature (> 0 for a groove bottom) of the deformed top at the corner X = 0, from the first
+    edge's samples ``x, y`` (``surface_line`` order): a P2 displacement on a straight edge makes
+    it a parabola in the edge parameter, so the quadratic fit is exact. Meaningful only where the
+    radius spans several elements (docs/creases.md: ``tip_h <= l/16`` for ``R = l/4``)."""
+    s = np.arange(points_per_edge + 1) / points_per_edge
+    cx = np.polyfit(s, x[:points_per_edge + 1], 2)
+    cy = np.polyfit(s, y[:points_per_edge + 1], 2)
+    dx, dy, ddx, ddy = cx[1], cy[1], 2 * cx[0], 2 * cy[0]
+    bend = dx * ddy - dy * ddx
+    radius = (dx * dx + dy * dy) ** 1.5 / bend if bend != 0 else math.inf
+    return float(np.degrees(np.arctan2(dy, dx))), float(radius)
+
+
 def surface_state(prob, setup: Setup) -> dict:
     """Geometry of the deformed surface: crease (contact) on either mirror line, groove depth,
     penetration of the mirror planes, self-crossings, creases of the mirrored profile."""
@@ -171,6 +186,7 @@ def surface_state(prob, setup: Setup) -> dict:
         out[f"crease_depth_{side}"] = float(y[touching].max() - y[tip]) if touching.any() else 0.0
         out[f"tip_y_{side}"] = float(y[tip])
     out["groove_depth"] = float(y.max() - y[0])
+    out["tip_angle"], out["tip_radius"] = tip_geometry(x, y)
     # mirrored profile over one period [-W, W] (x increasing where the surface is a graph)
     xs, ys = [], []
     for xi, yi in zip(np.clip(x, 0.0, W), y):  # the part of the surface that is a graph over x
@@ -261,7 +277,11 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
     outputs = list(np.geomspace(max(10 * setup.ramp, 1e-4), t_end, 12)[:-1])
     rows, profiles = [], {}
     state = {"onset": None, "stop_at": t_end, "max_penetration": 0.0, "max_crossings": 0, "dissipation": 0.0,
-             "interior": None}
+             "interior": None, "sharpening": None}
+    # A mesh-converging onset measure (docs/creases.md): the time at which the groove bottom has
+    # sharpened to a tip radius of l/4 (l = gamma/G the elastocapillary length), interpolated
+    # linearly in the radius between steps; the contact time itself drifts with the tip mesh.
+    sharp_radius = setup.surface_tension * setup.thickness / 4
     history = History(run_dir.file("history.csv")) if run_dir else None
 
     def on_step(p, rec) -> None:
@@ -277,6 +297,14 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
             state["max_penetration"] = surf["penetration"]
             state["max_penetration_time"] = rec.time
         state["max_crossings"] = max(state["max_crossings"], surf["self_crossings"])
+        radius = surf["tip_radius"] if surf["tip_radius"] > 0 else math.inf  # <= 0: not a groove bottom
+        if sharp_radius > 0 and state["sharpening"] is None and radius <= sharp_radius and len(rows) > 1:
+            before = rows[-2]["tip_radius"] if rows[-2]["tip_radius"] > 0 else math.inf
+            t0, t1 = rows[-2]["time"], rec.time
+            t_sharp = t0 + (t1 - t0) * (before - sharp_radius) / (before - radius) if math.isfinite(before) else t1
+            state["sharpening"] = {"time": t_sharp, "previous_time": t0, "step_time": t1, "radius": sharp_radius,
+                                   "swollen_depth": swell["swollen_depth"], "surface_ratio": swell["surface_ratio"],
+                                   "groove_depth": surf["groove_depth"]}
         creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
         interior = surf["self_crossings"] > 0
         near_mirror = min(surf["crossing_X"], setup.width - surf["crossing_X"]) < 2 * setup.surface_h if interior else False
@@ -360,6 +388,7 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                "viscous_dissipation": state["dissipation"],
                "network_energy_scale": setup.gel.shear_modulus(setup.lam0) * setup.width * setup.thickness,
                "max_penetration_over_h": state["max_penetration"], "max_self_crossings": state["max_crossings"],
+               "tip_sharpening": state["sharpening"],
                "max_penetration_time": state.get("max_penetration_time"),
                "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO}
     if run_dir:
@@ -599,7 +628,8 @@ def run_study(setup: Setup, out: str, *, cases: list[tuple[str, dict, float | No
                    "cumulative_balance_error_relative": summ["cumulative_balance_error_relative"],
                    "max_penetration_time": summ["max_penetration_time"],
                    "max_penetration_over_h": summ["max_penetration_over_h"],
-                   "max_self_crossings": summ["max_self_crossings"], "message": summ["message"]}
+                   "max_self_crossings": summ["max_self_crossings"],
+                   "tip_sharpening_time": (summ["tip_sharpening"] or {}).get("time"), "message": summ["message"]}
             rows.append(row)
             hist.append(row)
             progress(f"{kind}: h={s.top_h} W={s.width} a={s.amplitude} eta={s.viscosity} gamma/GH={s.surface_tension} "
@@ -705,6 +735,10 @@ def main(argv=None) -> dict:
           f"surface ratio {onset['surface_ratio']:.3f}, skin ratio {onset['skin_ratio']:.3f}; max balance error "
           f"{summary['max_relative_balance_error']:.1e}; max penetration/h {summary['max_penetration_over_h']:.1e}; "
           f"results in {args.out}")
+    sharp = summary["tip_sharpening"]
+    if sharp:
+        print(f"tip radius l/4 = {sharp['radius']:.4g} reached at t = {sharp['time']:.4e} (groove "
+              f"{sharp['groove_depth']:.4f}, swollen depth {sharp['swollen_depth']:.4f})")
     return summary
 
 

@@ -164,6 +164,18 @@ def test_tip_refinement_puts_small_elements_only_near_the_crease_line():
     assert setup.surface_h == 0.0025 and coarse().surface_h == 0.02  # the contact penalty's h
 
 
+def test_tip_geometry_of_a_parabolic_edge():
+    """The first P2 edge is a parabola in its parameter: y = x^2 / (2 R) sampled at 5 points has
+    the radius R and a horizontal tangent at the corner; tilted by 10 deg, the angle is 10 deg."""
+    s = np.linspace(0.0, 1.0, 5)
+    x, y = 0.003 * s, (0.003 * s) ** 2 / (2 * 0.005)
+    angle, radius = creases.tip_geometry(np.r_[x, 1.0], np.r_[y, 1.0])  # later points are ignored
+    assert angle == pytest.approx(0.0, abs=1e-9) and radius == pytest.approx(0.005, rel=1e-9)
+    c, si = np.cos(np.radians(10)), np.sin(np.radians(10))
+    angle, radius = creases.tip_geometry(c * x - si * y, si * x + c * y)
+    assert angle == pytest.approx(10.0, rel=1e-9) and radius == pytest.approx(0.005, rel=1e-9)
+
+
 def test_bad_input_raises_before_work():
     with pytest.raises(ValueError, match="amplitude"):
         creases.Setup(amplitude=0.7).check()
