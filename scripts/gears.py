@@ -13,7 +13,7 @@ critical mode and follows it to the end without further checks (one spectrum at 
 whether the final gear is stable). Rigid motions are removed by three tangential point
 constraints that carry no load (``ngsgel.supports``). Outputs in ``--out``: ``params.json``,
 ``path.csv/.jsonl`` (every step), ``summary.json``, ``gear.png`` (deformed films and gel),
-``gear.vtu``.
+``gear.vtu`` (not with ``--quick``).
 
 Sweeps (``--sweep``, values from ``--values``): ``efo``, ``efi``, ``ri_tfi``, ``ro_tfo`` (thesis
 figs. 4-1 to 4-4: FE onset film, ``mu``, gel volume and wave number against one parameter, with
@@ -526,8 +526,10 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                            else analysis(scene, model.mu_end))
     summary["analysis_seconds"] = time.perf_counter() - start
     with History(run.file("path.csv")) as history:
+        # quick: onset bracket 1e-3 of the span (0.58 % of mu_cr at Efo/Es = 100; two bisection
+        # solves and exact counts fewer); the switch starts from the unstable end either way
         record, critical = onset(model, history=history, progress=progress,
-                                 start_mu=check_start(summary["analysis"]))
+                                 start_mu=check_start(summary["analysis"]), tol_fraction=1e-3 if quick else 2e-4)
         summary["onset"] = record
         summary["onset_seconds"] = time.perf_counter() - start
         p = model.problem
@@ -572,7 +574,8 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
         summary["predicted_type"] = None if record is None else f"{record['mode_film']} teeth"
     summary["seconds"] = time.perf_counter() - start
     run.write_json("summary.json", summary)
-    VTKSeries(model.mesh, p.fields(), run.file("gear")).write(0.0)
+    if not quick:  # 1.2 s of the quick run; the picture and the CSV/JSON stay
+        VTKSeries(model.mesh, p.fields(), run.file("gear")).write(0.0)
     kind = summary["final"]["type"] if post_buckling else "onset only"
     draw_gear(model, run.file("gear.png"),
               title=f"Efi/Es={scene.efi:g}, Efo/Es={scene.efo:g}, Ri/tfi={scene.ri_tfi:g}, Ro/tfo={scene.ro_tfo:g}: "
@@ -747,8 +750,9 @@ def _main(argv=None):
     parser.add_argument("--resolutions", nargs="+", default=None, metavar="N:P:H:L",
                         help="resolutions of --sweep convergence as n_theta:order:maxh:film_layers "
                              "(default: the table of docs/gears.md)")
-    parser.add_argument("--switch-amplitude", type=float, default=0.25,
-                        help="amplitude of the first buckled state, in thicknesses of the buckling film")
+    parser.add_argument("--switch-amplitude", type=float, default=None,
+                        help="amplitude of the first buckled state, in thicknesses of the buckling film "
+                             "(default 0.25; quick: 1.0)")
     parser.add_argument("--threads", type=int, default=1,
                         help="NGSolve threads (1: on the shared 2-core machine, load average ~9, one thread "
                              "was 2x faster for the 2D solves and 30x for the radial 1D analysis)")
@@ -763,6 +767,12 @@ def _main(argv=None):
     check_resolution(res)
     if not 0 < args.teeth_threshold < 100:
         raise ValueError(f"teeth-threshold must lie in (0, 100), got {args.teeth_threshold!r}")
+    if args.switch_amplitude is None:
+        # quick: onto the branch at 1 t_f, past the sqrt regime near the onset whose small steps
+        # cost most of the path (Efo/Es = 100, quick mesh: 5 steps / 25 Newton iterations and 7
+        # bordered ones, against 11 / 53 and 4 from 0.25 t_f; the same final state to 1e-12).
+        # A corrector that wanders is retried at half the amplitude (``switch_branch``)
+        args.switch_amplitude = 1.0 if quick else 0.25
     if not 0 < args.switch_amplitude <= 10:
         raise ValueError(f"switch-amplitude must lie in (0, 10], got {args.switch_amplitude!r}")
     if not isinstance(args.threads, int) or args.threads < 1:
