@@ -302,6 +302,7 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
             before = rows[-2]["tip_radius"] if rows[-2]["tip_radius"] > 0 else math.inf
             t0, t1 = rows[-2]["time"], rec.time
             t_sharp = t0 + (t1 - t0) * (before - sharp_radius) / (before - radius) if math.isfinite(before) else t1
+            # time interpolated; swelling and groove: the state at the step that crossed
             state["sharpening"] = {"time": t_sharp, "previous_time": t0, "step_time": t1, "radius": sharp_radius,
                                    "swollen_depth": swell["swollen_depth"], "surface_ratio": swell["surface_ratio"],
                                    "groove_depth": surf["groove_depth"]}
