@@ -279,10 +279,7 @@ def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
     ``stability.spectrum``: zero is no eigenvalue (the inertia is known), so no shift search is
     needed; ``spectrum``'s general SuperLU of the shifted matrix (COLAMD ordering, 47 million
     nonzeros in its factors at 29k dofs, p = 3) took 4-6 s of the quick run, the LDL^T 0.05 s.
-    Lanczos can miss negative ones (n_theta = 256, p = 2, count 2: the four eigenvalues found
-    nearest to zero were -8.2e-5, +2.8e-5 twice and +3.8e-5, so a member of the critical pair
-    lay farther out or was missed as a degenerate copy), so eigenpairs are asked for until the
-    exact count of negative ones is among them; a mismatch after that raises."""
+    The exact count is checked against the eigenvalues found."""
     free = p.free_mask
     K = p.tangent(p.state)
     inv = p._solver.factor(K)
@@ -297,17 +294,20 @@ def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
     n = int(np.count_nonzero(free))
     M = free_matrix(mass_matrix(p), free)
     A, OPinv = free_matrix(K, free), LinearOperator((n, n), matvec=solve, dtype=float)
-    # more eigenpairs (and Lanczos vectors, which also helps with exactly degenerate pairs) until
-    # all negative ones are found
-    for extra in (2, 6, 14):
-        values, vectors = eigsh(A, k=negative + extra, M=M, sigma=0.0, which="LM", OPinv=OPinv,
-                                ncv=max(2 * (negative + extra) + 1, 20))
-        order = np.argsort(values)
-        values, vectors = values[order], vectors[:, order]
-        if np.count_nonzero(values < 0) == negative:
-            break
-    else:
-        raise RuntimeError(f"{negative} negative eigenvalues expected next to zero, found {values}")
+    if negative >= 2:
+        # "SA" of the shift-inverted values 1/omega: the most negative 1/omega are exactly the
+        # negative omega (an extreme end of the transformed spectrum, found in few Lanczos steps).
+        # Not "LM" (nearest zero): at n_theta = 256, p = 2 the four nearest zero came back as
+        # -8.2e-5, +2.8e-5 twice and +3.8e-5, without the second negative one; asking for more
+        # until all were found took 8 s at the quick onset
+        values, vectors = eigsh(A, k=negative, M=M, sigma=0.0, which="SA", OPinv=OPinv)
+    else:  # one member of a pair split by the mesh crossed (48 cells, p = 4: n = 24 = 48/2): it and
+        # the nearest positive one, its partner
+        values, vectors = eigsh(A, k=2, M=M, sigma=0.0, which="LM", OPinv=OPinv)
+    order = np.argsort(values)
+    values, vectors = values[order], vectors[:, order]
+    if np.count_nonzero(values < 0) != negative:
+        raise RuntimeError(f"{negative} negative eigenvalues expected, found {values}")
     # normalised as ``stability.spectrum``'s modes: phi^T M phi = volume. At least two: a pair split
     # by the mesh can cross one member at a time (48 cells, p = 4: n = 24 = 48/2)
     keep = max(negative, 2)
