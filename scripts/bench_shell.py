@@ -22,12 +22,9 @@ import math
 import os
 import time
 
+import numpy as np
 import ngsolve as ngs
 from netgen import occ
-
-import numpy as np
-
-from netgen.occ import OCCGeometry
 
 from geometries import cap_midsurface, cap_section, cap_solid, plate_midsurface
 from geometries.fields import radial_grading
@@ -220,7 +217,8 @@ def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc:
 
 
 def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: float = 0.8,
-                    step: float = 0.1, tol: float = 1e-3, progress=None, history=None) -> dict:
+                    step: float = 0.1, tol: float = 1e-3, apex_radius: float = APEX, progress=None,
+                    history=None) -> dict:
     """First bifurcation of the inward-indented full cap (no symmetry imposed, so any wave number
     can appear) with ``GelShell``: the apex patch's z displacement is stepped by the continuation
     driver (natural parameter; under displacement control the axisymmetric path has no limit
@@ -228,9 +226,10 @@ def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: flo
     every state, and the first change is located to ``tol H`` in depth. Returns the critical
     ``d/H``, the critical mode's wave number (``_mode_wave``), the linear-range patch stiffness,
     unknowns and wall time (mesh excluded); also when no bifurcation occurs up to
-    ``depth_max H`` (``found`` False; the lowest eigenvalue along the path is in the row)."""
+    ``depth_max H`` (``found`` False; the lowest eigenvalue along the path is in the row).
+    ``apex_radius``: radius of the shell's rigid patch (the solid's is ``APEX``)."""
     start = time.perf_counter()
-    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=APEX, apex_maxh=apex_maxh, curve_order=order)
+    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=apex_radius, apex_maxh=apex_maxh, curve_order=order)
     mesh_seconds = time.perf_counter() - start
     r = (1 + H**2) / (2 * H)
     shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=MICROLENS_T, mu=0.0,
@@ -247,7 +246,7 @@ def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: flo
     path = follow_path(shell, depth, method="natural", step=step * H, max_step=step * H, target=depth_max * H,
                        stability=StabilityOptions(eigenvalues=2, tol=tol * H), progress=progress,
                        history=history, stop=lambda point: bool(point.negative))
-    row = {"model": "shell", "order": order, "maxh": maxh, "apex_maxh": apex_maxh,
+    row = {"model": "shell", "order": order, "maxh": maxh, "apex_maxh": apex_maxh, "apex_radius": apex_radius,
            "ndof": shell.space.ndof, "elements": bundle.mesh.GetNE(ngs.BND), "stiffness": stiffness,
            "steps": len(path.points), "found": bool(path.events),
            "lowest_eigenvalue": [(p.parameter / H, p.eigenvalues[0]) for p in path.points]}
@@ -284,7 +283,7 @@ def split_disk(*, maxh: float, curve_order: int) -> ngs.Mesh:
         c = edge.center
         if abs(math.hypot(c.x, c.y) - 1.0) < 0.1:
             edge.name = "rim"
-    mesh = ngs.Mesh(OCCGeometry(shape).GenerateMesh(maxh=maxh))
+    mesh = ngs.Mesh(occ.OCCGeometry(shape).GenerateMesh(maxh=maxh))
     mesh.Curve(curve_order)
     return mesh
 

@@ -28,10 +28,15 @@ import math
 import os
 import time
 
-import numpy as np
-
-from bench_shell import (APEX, GRADED_REFERENCE, H, MICROLENS_T, cap_section_stiffness, cap_shell_onset,
-                         graded_plate_shell_onset)
+import graded_plate
+import microlens_onset
+import ngsolve as ngs
+from bench_shell import (APEX, GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_REFERENCE, GRADED_T, H, MICROLENS_T,
+                         cap_section_stiffness, cap_shell_onset, graded_plate_shell_onset)
+from geometries import cap_solid
+from ngsgel import FloryRehnerGel
+from ngsgel.harmonic import first_harmonic_instability
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
 CAP_REFERENCE = {"depth_over_H": 0.49090, "k": 3}  # axisymmetric solid, h = 0.01, order 3 (docs/benchmarks.md)
 PLATE_REFERENCE_K = 2
@@ -39,8 +44,6 @@ PLATE_REFERENCE_K = 2
 
 def cap_section_row(*, maxh: float, order: int) -> dict:
     """The axisymmetric solid's onset (``microlens_onset.onset``) and its patch stiffness."""
-    import microlens_onset
-
     stiffness, _ = cap_section_stiffness(maxh=maxh, order=order)
     onset = microlens_onset.onset(H, maxh=maxh, order=order, apex=APEX)
     return {"case": "cap", "model": "axisymmetric", "resolution": f"h={maxh:g} order {order}",
@@ -58,12 +61,6 @@ def cap_shell_row(*, maxh: float, apex_maxh: float, order: int) -> dict:
 def plate_section_row(p: float, *, maxh: float, order: int, kmax: int = 8) -> dict:
     """Onset on the axisymmetric section of ``graded_plate`` (no axisymmetric bifurcation on the
     softer-edge path, so a plain ramp in the soft stretch with the harmonic scan suffices)."""
-    import graded_plate
-    from ngsgel.harmonic import first_harmonic_instability
-
-    from bench_shell import GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_T
-    from ngsgel import FloryRehnerGel
-
     start = time.perf_counter()
     prob, stretch = graded_plate.build(n0=GRADED_N0, nR=GRADED_NR, p=p, t=GRADED_T, maxh=maxh, order=order,
                                        mu0=GRADED_MU0)
@@ -87,10 +84,6 @@ def plate_shell_row(p: float, *, maxh: float, order: int) -> dict:
 
 def cap_solid_unknowns(*, layers: int = 2, order: int = 2, maxh: float = 0.05) -> int:
     """Unknowns of the 3D thin cap (prism layers) at t/r = 0.005, from its mesh only."""
-    import ngsolve as ngs
-
-    from geometries import cap_solid
-
     mesh = cap_solid(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX).mesh
     return ngs.VectorH1(mesh, order=order).ndof
 
@@ -139,8 +132,6 @@ def plot(rows: list[dict], path) -> None:
 
 
 if __name__ == "__main__":
-    from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
-
     parser = scene_parser(__doc__, out="results/work_precision", quick="plate p = 2 only, coarsest resolutions")
     parser.add_argument("--plate-p", type=float, nargs="+", default=[2.0, 10.0], help="grading exponents of (b)")
     args = parser.parse_args()
