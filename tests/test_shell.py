@@ -14,7 +14,7 @@ from netgen import occ
 import bench_shell  # scripts/ (tests/conftest.py): the benchmark's cases are the reference cases
 from geometries import cap_midsurface, plate_midsurface
 from ngsgel import FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp, spectrum
-from ngsgel.stability import mode_function
+from ngsgel.stability import conjugate_force, mode_function
 from ngsgel.shell import GelShell
 
 thin_plate_deflection = bench_shell.thin_plate_deflection
@@ -172,6 +172,28 @@ def test_prescribed_apex_displacement_takes_the_point_load_as_reaction():
     indented.solve()
     assert w < 0
     assert indented.reaction(apex, "z") == pytest.approx(-force, rel=1e-8)
+
+
+def test_rigid_patch_force_does_the_work_of_the_indentation():
+    # prescribe_region moves the apex patch rigidly; its force (conjugate_force) must satisfy
+    # Clapeyron's theorem in the linear range, E(d) - E(0) = F d / 2 (the shell's nonlinearity
+    # changes it by ~(d / t)^2 = 1e-4 at d = 0.01 t).
+    bundle = cap_midsurface(H=0.3, maxh=0.4, apex_radius=0.4, curve_order=3)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=0.02, mu=0.0)
+    shell.clamp("base")
+    depth = ngs.Parameter(0.0)
+    shell.prescribe_region("apex", "z", -depth)
+    shell.solve()
+    unloaded = shell.energy()
+    d = 0.01 * shell.thickness
+    depth.Set(d)
+    shell.solve()
+    force = conjugate_force(shell, depth)
+    assert force > 0
+    assert shell.energy() - unloaded == pytest.approx(force * d / 2, rel=1e-3)
+    r = (1 + 0.3**2) / 0.6  # inside the patch, the whole patch moves down by d
+    inside = bundle.mesh(0.2, 0.0, 0.3 - r + math.sqrt(r * r - 0.2**2), ngs.BND)
+    assert shell.displacement(inside)[2] == pytest.approx(-d, rel=1e-12)
 
 
 @pytest.mark.slow  # ~2 min; scripts/bench_shell.py runs it
