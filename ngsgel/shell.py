@@ -50,7 +50,8 @@ full energy instead, ~4x dearer to assemble (on the cap swelling benchmark the t
 0.03 %). There is no shear strain (Kirchhoff–Love), hence no shear locking as ``t -> 0``.
 
 Boundary conditions: ``clamp`` (displacement and rotation), ``simply_support`` (displacement),
-``symmetry`` (normal displacement and rotation), ``fix``/``prescribe`` (components), free edges
+``symmetry`` (normal displacement and rotation), ``fix``/``prescribe`` (components),
+``prescribe_region`` (a component on a whole surface region: a rigid indenter patch), free edges
 by default; dead loads on surface regions, edge moments and point loads at mesh vertices, scaled
 by ``Parameter`` s. The class implements the ``NonlinearSystem`` protocol of ``ngsgel.newton`` and
 what ``ramp``, ``follow_path`` and ``ngsgel.stability`` use (``mass_matrix``, ``integrate``).
