@@ -670,7 +670,7 @@ def parse_resolution(text: str) -> Resolution:
 
 
 # the quick run's resolution, from the convergence table (docs/gears.md, Efo/Es = 100): cubic
-# elements, 80 cells around (3.3 per wave), one cell across each film: onset 0.3 % from the finest
+# elements, 80 cells around (3.3 per wave), one cell across each film: onset 0.4 % from the finest
 # meshes with their 24 waves, 29,280 dofs. The previous quick mesh (96 cells, p = 2, 21,888 dofs)
 # gave 22 waves, 5 % off, and an impure post-buckled pattern; p = 2 needs 256 cells (42k dofs)
 # for 24 waves, p = 3 with 64 cells gives 23
