@@ -18,7 +18,11 @@ and figures, and a VTK series.
 Surface energy of the gel-solvent interface (``--surface-tension gamma/(G H)``, default
 ``SURFACE_TENSION`` = 0.02; 0 = the sharp-interface model) adds ``gamma |F' t|`` on the top
 (``ngsgel.surface``): the elastocapillary length ``gamma/G`` regularises the crease tip, and the
-quasi-static crease threshold converges once ``top_h`` is well below it (docs/creases.md).
+quasi-static crease threshold converges once ``top_h`` is well below it (docs/creases.md). The
+transient onset needs the crease tip resolved far below it (``--tip-h`` <= l/16 on x < 2 l): the
+groove bottom sharpens to < l/20 before the faces meet. ``tip_sharpening`` in the summary (the
+time at which the tip radius reaches l/4) converges; the contact time drifts ~3 % per halving of
+``tip_h`` (docs/creases.md, "Why the onset did not converge").
 
 ``--equilibrium`` runs the quasi-static counterpart instead (``mu`` homogeneous, raised
 slowly): the linear (wrinkling) threshold of the flat layer from the exact inertia of the tangent
