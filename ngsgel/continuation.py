@@ -589,8 +589,10 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
         parameter.Set(restart.parameter)
         step = restart.step
     newton_options = dict(newton_options or {})
-    first = problem.solve(**newton_options)
+    # the floor also for the first solve: a start that is already an equilibrium has a residual at
+    # round-off, which no relative tolerance can reduce further
     newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(load_rate(problem, parameter).residual)))
+    first = problem.solve(**newton_options)
     driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
                      vtk_every=vtk_every, progress=progress, keep_states=keep_states, stop=stop,
                      max_steps=max_steps, locate=stabilization is None, newton_options=newton_options)
