@@ -102,6 +102,7 @@ def main(argv=None) -> list[dict]:
                         help="surface element sizes at the crease tip (x < --tip-length), one run each")
     parser.add_argument("--top-h", type=float, default=0.005, help="surface element size elsewhere (capped by tip-h)")
     parser.add_argument("--tip-length", type=float, default=creases.Setup.tip_length)
+    parser.add_argument("--maxh", type=float, default=creases.Setup.maxh, help="element size in the bulk")
     parser.add_argument("--mu0", type=float, default=-0.1)
     parser.add_argument("--amplitude", type=float, default=0.1)
     parser.add_argument("--surface-tension", type=float, default=creases.SURFACE_TENSION)
@@ -121,11 +122,12 @@ def main(argv=None) -> list[dict]:
     table = []
     for tip_h in (float(h) for h in args.tip_h.split(",")):
         setup = creases.Setup(mu0=args.mu0, amplitude=args.amplitude, top_h=max(args.top_h, tip_h), tip_h=tip_h,
-                              tip_length=args.tip_length, surface_tension=args.surface_tension, ramp=args.ramp)
+                              tip_length=args.tip_length, surface_tension=args.surface_tension, ramp=args.ramp,
+                              maxh=args.maxh)
         r = run(setup, t_end=args.t_end, t_fine=args.t_fine, dt_max=args.dt_max, dt_fine=args.dt_fine, times=times)
-        label = f"tip_h{tip_h:g}_a{args.amplitude:g}"
+        label = f"tip_h{tip_h:g}_a{args.amplitude:g}_maxh{args.maxh:g}"
         np.savez(os.path.join(args.out, label + ".npz"), **{k: v for k, v in r.items() if v is not None})
-        entry = {"tip_h": tip_h, "top_h": setup.top_h, "amplitude": args.amplitude, "ndof": r["ndof"],
+        entry = {"tip_h": tip_h, "top_h": setup.top_h, "maxh": setup.maxh, "amplitude": args.amplitude, "ndof": r["ndof"],
                  "onset": r["onset"], "previous": r["previous"], "wall_seconds": r["wall"],
                  "geometry": describe(r, times, levels)}
         table.append(entry)
