@@ -203,4 +203,6 @@ def test_quick_script_reports_onset(tmp_path):
     assert summary["max_relative_balance_error"] < 1e-6
     saved = json.loads((tmp_path / "summary.json").read_text())
     assert saved["onset"]["time"] == pytest.approx(summary["onset"]["time"])
+    sharp = saved["tip_sharpening"]  # the converging onset measure (needs tip_h <= l/16 to mean anything)
+    assert sharp is None or sharp["previous_time"] <= sharp["time"] <= sharp["step_time"]
     assert (tmp_path / "creases.png").stat().st_size > 0
