@@ -37,11 +37,12 @@ percent of ``kappa``). ``stiffness="michell"`` uses the mode-``n`` stiffness of 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 import ngsolve as ngs
+from scipy.optimize import brentq
 from netgen.meshing import Element0D, Element1D, FaceDescriptor, Mesh as NetgenMesh, MeshPoint, Pnt
 
 from .kinematics import PolarPlaneStrain
@@ -370,8 +371,6 @@ def linear_switch(tube: FilmTube, *, E_gel: float, nu_gel: float, stiffness: Lit
     mode-``n`` Michell stiffness of the annulus; reference geometry, interface radii). Below it
     the inner film buckles first. Root in ``log Efo`` between ``lo`` and ``hi`` times
     ``tube.Efi``; None if they do not bracket it."""
-    from dataclasses import replace
-    from scipy.optimize import brentq
 
     def excess(log_efo: float) -> float:  # > 0: the inner film is nearer its critical stress
         t = replace(tube, Efo=math.exp(log_efo))

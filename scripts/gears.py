@@ -532,6 +532,7 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                                  start_mu=check_start(summary["analysis"]), tol_fraction=1e-3 if quick else 2e-4)
         summary["onset"] = record
         summary["onset_seconds"] = time.perf_counter() - start
+        final_negative = None
         p = model.problem
         if record is not None and post_buckling:
             switched = switch_branch(model, critical, record, film_amplitude=switch_amplitude, path_tol=path_tol)
@@ -558,7 +559,8 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                                qoi={**model.qoi(), "negative_count": (lambda: math.nan) if quick else (lambda: negative_count_of(p)),
                                     "phase_pin_reaction": lambda: pin_reaction(p, dof)})
             force_scale = span * float(np.linalg.norm(load_rate(p, p.mu).residual))
-            negative = np.array([pt.qoi["negative_count"] for pt in path.points] + [negative_count_of(p)])
+            final_negative = negative_count_of(p)  # one LDL^T, shared with the final summary
+            negative = np.array([pt.qoi["negative_count"] for pt in path.points] + [final_negative])
             unstable = [pt.parameter for pt in path.points if pt.qoi["negative_count"] > 0]  # nan > 0 is False
             summary["path"] = {"steps": len(path.points) - 1, "newton_iterations": int(path.column("iterations").sum()),
                                "phase_pin_reaction_max_relative": float(np.max(np.abs(path.column("phase_pin_reaction"))))
@@ -568,7 +570,8 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                                "seconds": time.perf_counter() - start - summary["onset_seconds"]}
     if post_buckling:
         summary["final"] = {"mu": p.mu.Get(), "volume_fraction": model.volume_fraction(),
-                            "negative_eigenvalues": negative_count_of(p), **classify(model, threshold)}
+                            "negative_eigenvalues": negative_count_of(p) if final_negative is None else final_negative,
+                            **classify(model, threshold)}
     else:  # the gear's type predicted by the film the critical mode lives on
         summary["final"] = None
         summary["predicted_type"] = None if record is None else f"{record['mode_film']} teeth"

@@ -21,15 +21,9 @@ import math
 import os
 import time
 
-import ngsolve as ngs
-
-from geometries import cap_section
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
-from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
+from microlens import THICKNESS_RATIO, AxisymmetricCap, Indentation, SectionResolution
+from ngsgel.harmonic import first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory
-
-GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
-THICKNESS_RATIO = 0.005  # t / r, r the mid-surface radius
 
 
 def fitch_lambda(H: float, t: float, nu: float = 0.5) -> float:
@@ -50,24 +44,17 @@ def fitch_waves(lam: float) -> str:
 def onset(H: float, *, maxh: float, layers: int = 2, order: int = 3, apex: float = 0.02, kmax: int = 8,
           max_depth: float = 2.0) -> dict:
     """First non-axisymmetric instability of the inward-loaded cap of apex height ``H``."""
-    if not 0 < H <= 1:
-        raise ValueError(f"H (apex height / base radius) must be in (0, 1], got {H}")
-    r = (1 + H * H) / (2 * H)
-    t = THICKNESS_RATIO * r
     start = time.perf_counter()
-    mesh = cap_section(H=H, t=t, maxh=maxh, layers=layers, apex_radius=apex, apex_maxh=min(maxh, apex / 4)).mesh
-    prob = EquilibriumProblem(mesh, kinematics=Axisymmetric(), materials=GEL, lam0=GEL.lam_free(0.0), mu=0.0,
-                              order=order)
-    depth = ngs.Parameter(0.0)
-    prob.fix("base")
-    prob.fix("axis", "r")
-    prob.prescribe("apex", "z", -depth)
-    found = first_harmonic_instability(prob, depth, max_depth * H, ks=list(range(kmax + 1)), step=0.02 * H,
-                                       max_step=0.05 * H, tolerance=1e-4 * H, stability=HarmonicStability(prob))
+    case = Indentation(H=H, direction="inward", depth=max_depth)
+    cap = AxisymmetricCap(case, SectionResolution(maxh=maxh, layers=layers, order=order, apex=apex))
+    t = case.t
+    found = first_harmonic_instability(cap.problem, cap.depth, max_depth * H, ks=list(range(kmax + 1)),
+                                       step=0.02 * H, max_step=0.05 * H, tolerance=1e-4 * H,
+                                       stability=cap.harmonic)
     lam = fitch_lambda(H, t)
     return {"H": H, "t": t, "fitch_lambda": lam, "fitch_waves": fitch_waves(lam), "found": found.found,
             "depth_over_H": found.parameter / H if found.found else None, "k": found.k,
-            "ndof_section": prob.space.ndof, "maxh": maxh, "order": order, "apex_radius": apex,
+            "ndof_section": cap.problem.space.ndof, "maxh": maxh, "order": order, "apex_radius": apex,
             "wall_s": time.perf_counter() - start}
 
 
