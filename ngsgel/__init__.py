@@ -8,7 +8,8 @@ re-exported).
 
 from .continuation import (Checkpoint, ContinuationError, Event, PathPoint, PathResult, Stabilization,
                            StabilityOptions, follow_path)
-from .kinematics import Axisymmetric, Kinematics, PlaneStrain, Solid3D, SphericalSymmetric, kinematics_by_name
+from .kinematics import (Axisymmetric, GeneralizedPlaneStrain, Kinematics, PlaneStrain, Solid3D, SphericalSymmetric,
+                         kinematics_by_name)
 from .materials import FloryRehnerGel, Material, NeoHookeanFilm
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
 from .problem import EquilibriumProblem, GelBody
@@ -21,7 +22,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Axisymmetric", "Checkpoint", "ContinuationError", "EquilibriumProblem", "Event", "FloryRehnerGel",
-    "GelBody", "GelShell", "Kinematics", "LinearSolver", "Material", "NeoHookeanFilm", "NewtonError", "NewtonResult",
+    "GelBody", "GeneralizedPlaneStrain", "GelShell", "Kinematics", "LinearSolver", "Material", "NeoHookeanFilm", "NewtonError", "NewtonResult",
     "PathPoint", "PathResult", "PlaneStrain", "RampError", "RampResult", "Solid3D", "SphericalSymmetric",
     "Stabilization", "StabilityOptions", "StepRecord", "TransientError", "TransientProblem",
     "TransientResult", "follow_path", "kinematics_by_name", "linear_buckling", "load_rate", "march",

@@ -1,6 +1,12 @@
 """Film-coated gel tube in plane strain (thesis ch. 4, MODEL.md scene B): the axisymmetric
 pre-buckling state on a radial line and the ring-on-foundation estimate of the onset.
 
+``FilmTube.axial``: "fixed" is plane strain (MODEL.md: the axial stretch stays at the reference);
+"free" is generalized plane strain, a long tube with free ends: one uniform axial stretch of gel
+and films, a global unknown set by zero net axial force (``PolarGeneralizedPlaneStrain``). Both
+are exact for the axisymmetric state; the linear three-cylinder analysis of the thesis
+(``linear_film_stresses``) is plane strain only.
+
 Pre-buckling state
 ------------------
 Until a film buckles the state is axisymmetric, ``u = u_r(r) e_r``, and the plane-strain tube is
@@ -22,8 +28,8 @@ The foundation is the gel linearised about its current state with ``mu`` held (d
 equilibrium model has no time, the solvent follows every perturbation). About an in-plane
 isotropic state ``F = diag(lam, lam, lamz)`` (dry reference, ``J = lam^2 lamz``) with no in-plane
 stress, an incremental in-plane shear ``gamma`` gives ``sigma_12 = Nv lam^2 gamma / J``, so the
-in-plane shear modulus is ``G = Nv / lamz`` (``= Nv/lam0`` in the tube, whose axial stretch
-stays ``lam0``); an equibiaxial in-plane strain ``eps`` gives ``dsigma = 2 (Nv/J + J Pi'(J)) eps``,
+in-plane shear modulus is ``G = Nv / lamz`` (``= Nv/lam0`` in the plane-strain tube, whose
+axial stretch stays ``lam0``; with a free axial stretch the tube's current one); an equibiaxial in-plane strain ``eps`` gives ``dsigma = 2 (Nv/J + J Pi'(J)) eps``,
 so the plane-strain area modulus is ``kappa = lambda_L + G = Nv/J + 1/(J(J-1)) - 2 chi/J^2``.
 The equivalent isotropic Poisson ratio in Michell's solution is ``nu = (kappa - G)/(2 kappa)``
 (at free swelling ``kappa = K + G/3`` with ``K`` the drained bulk modulus, and this ``nu`` is
@@ -45,7 +51,7 @@ import ngsolve as ngs
 from scipy.optimize import brentq
 from netgen.meshing import Element0D, Element1D, FaceDescriptor, Mesh as NetgenMesh, MeshPoint, Pnt
 
-from .kinematics import PolarPlaneStrain
+from .kinematics import PolarGeneralizedPlaneStrain, PolarPlaneStrain
 from .materials import FloryRehnerGel, NeoHookeanFilm
 from .problem import EquilibriumProblem
 from .ring_foundation import critical_mode, foundation_stiffness_annulus
@@ -67,7 +73,10 @@ def _positive(name: str, value) -> float:
 class FilmTube:
     """Gel annulus ``Ri < r < Ro`` (reference = free swollen at ``mu0``) with films of thickness
     ``tfi`` inside (``Ri - tfi < r < Ri``) and ``tfo`` outside, moduli ``Efi``, ``Efo`` (absolute,
-    in units of kT/v), Poisson ratio ``nu_film``; films stress-free in the reference."""
+    in units of kT/v), Poisson ratio ``nu_film``; films stress-free in the reference. ``axial``:
+    "fixed" (plane strain: the axial stretch stays at the reference) or "free" (generalized plane
+    strain: a long tube with free ends, one uniform axial stretch of gel and films alike, zero net
+    axial force)."""
 
     Ri: float
     Ro: float
@@ -79,8 +88,12 @@ class FilmTube:
     Nv: float = 1e-3
     chi: float = 0.5
     mu0: float = 0.0
+    axial: Literal["fixed", "free"] = "fixed"
 
     def __post_init__(self):
+        if self.axial not in ("fixed", "free"):
+            raise ValueError(f"axial must be 'fixed' (plane strain) or 'free' (generalized plane strain: "
+                             f"uniform axial stretch, zero axial force), got {self.axial!r}")
         for name in ("Ri", "Ro", "tfi", "tfo", "Efi", "Efo", "Nv"):
             _positive(name, getattr(self, name))
         if self.Ro <= self.Ri:
@@ -111,12 +124,20 @@ class FilmTube:
             return self.Ro + self.tfo / 2, self.tfo, self.Efo
         raise ValueError(f"film must be 'inner' or 'outer', got {which!r}")
 
+    @property
+    def radial_kinematics(self):
+        """Kinematics of the radial line: plane strain or generalized plane strain."""
+        return PolarPlaneStrain() if self.axial == "fixed" else PolarGeneralizedPlaneStrain()
+
     def mu_at_volume_fraction(self, fraction: float) -> float:
-        """``mu`` at which a free plane-strain gel (axial stretch ``lam0``) keeps ``fraction`` of
-        its volume: the end of a shrink run (the films hold the gel back a little, so the coated
-        gel keeps slightly more)."""
+        """``mu`` at which a free gel under the tube's axial condition keeps ``fraction`` of its
+        volume (plane strain: in-plane shrink at axial stretch ``lam0``; free axial stretch:
+        isotropic shrink): the end of a shrink run (the films hold the gel back a little, so the
+        coated gel keeps slightly more)."""
         if not isinstance(fraction, (int, float)) or not 0.2 < fraction < 1.0:
             raise ValueError(f"volume fraction must lie in (0.2, 1), got {fraction!r}")
+        if self.axial == "free":
+            return self.gel.mu_free(self.lam0 * fraction ** (1.0 / 3.0))
         return self.gel.mu_plane_strain(self.lam0 * math.sqrt(fraction), self.lam0)
 
 
@@ -158,8 +179,9 @@ def radial_line_mesh(tube: FilmTube, *, film_cells: int = 4, gel_cells: int = 64
 
 @dataclass
 class RadialState:
-    """Pre-buckling quantities at one ``mu``: hoop forces (compression positive), current film
-    mid-radii and gel radii, gel volume fraction."""
+    """Pre-buckling quantities at one ``mu``: hoop forces (compression positive, per unit current
+    axial length), current film mid-radii and gel radii, gel volume fraction, axial stretch
+    relative to the reference (1 in plane strain)."""
 
     mu: float
     N_inner: float
@@ -171,6 +193,7 @@ class RadialState:
     volume_fraction: float
     sigma_inner: float = field(default=0.0)
     sigma_outer: float = field(default=0.0)
+    axial_stretch: float = field(default=1.0)
 
 
 class RadialTube:
@@ -180,7 +203,7 @@ class RadialTube:
     def __init__(self, tube: FilmTube, *, order: int = 3, film_cells: int = 4, gel_cells: int = 64):
         self.tube = tube
         self.mesh = radial_line_mesh(tube, film_cells=film_cells, gel_cells=gel_cells)
-        self.problem = EquilibriumProblem(self.mesh, kinematics=PolarPlaneStrain(), materials=tube.materials(),
+        self.problem = EquilibriumProblem(self.mesh, kinematics=tube.radial_kinematics, materials=tube.materials(),
                                           lam0=tube.lam0, mu=tube.mu0, order=order)
         self.problem.solve()
 
@@ -193,7 +216,7 @@ class RadialTube:
         u = p.displacement
         F = p.deformation_gradient(u)
         sigma = p.stress()
-        # hoop force per unit axial length: sigma_tt over the current thickness dr = F_rr dR
+        # hoop force per unit current axial length: sigma_tt over the current thickness dr = F_rr dR
         N = {name: -self._integral(sigma[1, 1] * F[0, 0], name) for name in (FILM_INNER, FILM_OUTER)}
         thickness = {name: self._integral(F[0, 0], name) for name in (FILM_INNER, FILM_OUTER)}
         t = self.tube
@@ -205,7 +228,7 @@ class RadialTube:
                            gel_inner_radius=t.Ri + u(self.mesh(t.Ri)), gel_outer_radius=t.Ro + u(self.mesh(t.Ro)),
                            volume_fraction=gel_volume / gel_reference,
                            sigma_inner=-N[FILM_INNER] / thickness[FILM_INNER],
-                           sigma_outer=-N[FILM_OUTER] / thickness[FILM_OUTER])
+                           sigma_outer=-N[FILM_OUTER] / thickness[FILM_OUTER], axial_stretch=p.axial_stretch())
 
 
 @dataclass(frozen=True)
@@ -224,7 +247,8 @@ class RingOnset:
 
 
 def _critical(tube: FilmTube, state: RadialState, film: str, stiffness: str, interface: str):
-    G, nu = gel_plane_strain_moduli(tube.gel, state.mu, tube.lam0)
+    # the gel's current axial stretch (from the dry state): lam0 in plane strain
+    G, nu = gel_plane_strain_moduli(tube.gel, state.mu, tube.lam0 * state.axial_stretch)
     a, b = state.gel_inner_radius, state.gel_outer_radius
     R = state.R_inner if film == "inner" else state.R_outer
     _, t, E = tube.film(film)

@@ -3,6 +3,12 @@
 Every kinematics gives the full 3x3 ``F' = dx/dX`` from the reference (the mesh) and the volume
 weight of the mesh measure, so one energy formula serves a 3D solid, a plane-strain section, an
 axisymmetric r–z section and a spherically symmetric radial line.
+
+Generalized plane strain (a long body with free ends: uniform axial stretch, zero axial force)
+has one global unknown besides the displacement, the axial strain ``e`` (``F_zz = 1 + e``
+relative to the reference). Kinematics with ``axial_unknown = True`` take it as
+``deformation_gradient(u, axial=e)``; the problem adds it to its space (``ngs.NumberSpace``) and
+minimising the energy per unit reference length over it makes the net axial force vanish.
 """
 
 from __future__ import annotations
@@ -12,8 +18,8 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 
-__all__ = ["Kinematics", "Solid3D", "PlaneStrain", "Axisymmetric", "SphericalSymmetric", "PolarPlaneStrain",
-           "kinematics_by_name"]
+__all__ = ["Kinematics", "Solid3D", "PlaneStrain", "GeneralizedPlaneStrain", "Axisymmetric", "SphericalSymmetric",
+           "PolarPlaneStrain", "PolarGeneralizedPlaneStrain", "kinematics_by_name"]
 
 
 @dataclass(frozen=True)
@@ -24,6 +30,7 @@ class Kinematics:
     name = "base"
     mesh_dim = 0
     components: tuple[str, ...] = ()
+    axial_unknown = False  # True: deformation_gradient(u, axial=e) with one global axial strain e
 
     def deformation_gradient(self, u) -> ngs.CoefficientFunction:  # pragma: no cover - interface
         raise NotImplementedError
@@ -124,7 +131,41 @@ class PolarPlaneStrain(Kinematics):
         return 2 * math.pi * ngs.x
 
 
-_BY_NAME = {k.name: k for k in (Solid3D, PlaneStrain, Axisymmetric, SphericalSymmetric, PolarPlaneStrain)}
+def _axial_stretch(axial, kinematics: Kinematics) -> ngs.CoefficientFunction:
+    if axial is None:
+        raise ValueError(f"kinematics {kinematics.name!r} needs the axial strain: deformation_gradient(u, axial=e)")
+    return 1 + axial
+
+
+@dataclass(frozen=True)
+class GeneralizedPlaneStrain(PlaneStrain):
+    """Section in the x–y plane of a long body with free ends: the out-of-plane stretch
+    ``1 + e`` is uniform and one global unknown, fixed by zero net axial force (the energy per
+    unit reference length is minimal over it)."""
+
+    name = "generalized_plane"
+    axial_unknown = True
+
+    def deformation_gradient(self, u, axial=None):
+        G = ngs.Grad(u)
+        return _embed((1 + G[0, 0], G[0, 1], 0, G[1, 0], 1 + G[1, 1], 0, 0, 0, _axial_stretch(axial, self)))
+
+
+@dataclass(frozen=True)
+class PolarGeneralizedPlaneStrain(PolarPlaneStrain):
+    """Radial line of an axisymmetric tube with free ends: ``F = diag(1 + u', 1 + u/r, 1 + e)``
+    with one global axial strain ``e`` (zero net axial force), the 1D reference model of
+    :class:`GeneralizedPlaneStrain` for axisymmetric states."""
+
+    name = "polar_generalized_plane"
+    axial_unknown = True
+
+    def deformation_gradient(self, u, axial=None):
+        return _embed((1 + ngs.Grad(u)[0], 0, 0, 0, 1 + u / ngs.x, 0, 0, 0, _axial_stretch(axial, self)))
+
+
+_BY_NAME = {k.name: k for k in (Solid3D, PlaneStrain, GeneralizedPlaneStrain, Axisymmetric, SphericalSymmetric,
+                                PolarPlaneStrain, PolarGeneralizedPlaneStrain)}
 
 
 def kinematics_by_name(name: str) -> Kinematics:

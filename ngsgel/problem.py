@@ -4,6 +4,11 @@ The problem owns the finite element space, the displacement and the energy form.
 ``NonlinearSystem`` for ``ngsgel.newton`` and knows nothing of how its load parameters are
 stepped. The computational reference is the mesh: for gels a swollen state ``lam0`` (MODEL.md
 section 2), for films their stress-free bonded state.
+
+Kinematics with an axial unknown (``GeneralizedPlaneStrain``, ``PolarGeneralizedPlaneStrain``)
+make the space the product of the displacement space and a ``NumberSpace`` holding the axial
+strain ``e`` (one global dof, the last one); ``displacement`` is then the first component of the
+state, ``axial_stretch()`` is ``1 + e`` and ``parts(gf)`` splits any GridFunction of the space.
 """
 
 from __future__ import annotations
@@ -160,14 +165,46 @@ class GelBody(BuiltOnDemand):
     def space(self) -> ngs.FESpace:
         if self._space is None:
             if self.mesh.dim == 1:  # one radial component: a scalar space
-                self._space = ngs.H1(self.mesh, order=self.order, dirichlet="|".join(self._fixed[0]))
+                space = ngs.H1(self.mesh, order=self.order, dirichlet="|".join(self._fixed[0]))
             else:
                 flags = {f"dirichlet{'xyz'[i]}": "|".join(b) for i, b in self._fixed.items() if b}
-                self._space = ngs.VectorH1(self.mesh, order=self.order, **flags)
+                space = ngs.VectorH1(self.mesh, order=self.order, **flags)
+            # the axial strain: one global dof after the displacement dofs
+            self._space = space * ngs.NumberSpace(self.mesh) if self.kinematics.axial_unknown else space
         return self._space
 
-    def deformation_gradient(self, u) -> ngs.CoefficientFunction:
-        return self.kinematics.deformation_gradient(u)
+    def parts(self, gf):
+        """``(displacement, axial strain)`` of a GridFunction (or trial/test function) of
+        ``space``; the axial strain is None for kinematics without an axial unknown."""
+        if self.kinematics.axial_unknown:
+            u, axial = (gf.components if isinstance(gf, ngs.GridFunction) else gf)
+            return u, axial
+        return gf, None
+
+    @property
+    def axial_dof(self) -> int:
+        """Number of the axial-strain dof (the last one); ValueError without an axial unknown.
+        ``fix_dof(axial_dof)`` holds the axial stretch at its current value's target (1: plane
+        strain)."""
+        if not self.kinematics.axial_unknown:
+            raise ValueError(f"kinematics {self.kinematics.name!r} has no axial unknown")
+        return self.space.ndof - 1
+
+    def axial_stretch(self) -> float:
+        """Axial stretch of the state relative to the reference: ``1 + e`` (1 if the kinematics
+        holds it)."""
+        if not self.kinematics.axial_unknown:
+            return 1.0
+        return 1.0 + float(self.state.FV().NumPy()[self.axial_dof])
+
+    def deformation_gradient(self, u, axial=None) -> ngs.CoefficientFunction:
+        """``F'`` of displacement ``u``; with an axial unknown, ``axial`` defaults to the current
+        state's axial strain."""
+        if not self.kinematics.axial_unknown:
+            return self.kinematics.deformation_gradient(u)
+        if axial is None:
+            axial = self.parts(self.gridfunction)[1]
+        return self.kinematics.deformation_gradient(u, axial=axial)
 
     def region_sum(self, integrand_of) -> ngs.SumOfIntegrals:
         """``sum_region integrand_of(material, region) * weight * dx(region)``."""
@@ -179,15 +216,15 @@ class GelBody(BuiltOnDemand):
             total = term if total is None else total + term
         return total
 
-    def cauchy_stress(self, u, mu) -> ngs.CoefficientFunction:
+    def cauchy_stress(self, u, mu, axial=None) -> ngs.CoefficientFunction:
         """Cauchy stress (3x3) of the material in each region."""
-        Fp = self.deformation_gradient(u)
+        Fp = self.deformation_gradient(u, axial)
         values = {name: mat.reference_cauchy(Fp, mu, self.lam0) for name, mat in self.materials.items()}
         return self.mesh.MaterialCF(values)
 
-    def margin_indicator(self, u) -> ngs.CoefficientFunction:
+    def margin_indicator(self, u, axial=None) -> ngs.CoefficientFunction:
         """1 where the state is outside a material's admissible set, 0 inside."""
-        Fp = self.deformation_gradient(u)
+        Fp = self.deformation_gradient(u, axial)
         values = {name: ngs.IfPos(mat.margin(Fp, self.lam0), 0.0, 1.0) for name, mat in self.materials.items()}
         return self.mesh.MaterialCF(values)
 
@@ -237,8 +274,8 @@ class EquilibriumProblem(GelBody):
     # ------------------------------------------------------------ the discrete problem
     def _build(self) -> None:
         V = self.space
-        u = V.TrialFunction()
-        Fp = self.deformation_gradient(u)
+        u, axial = self.parts(V.TrialFunction())
+        Fp = self.kinematics.deformation_gradient(u, axial=axial) if axial is not None else self.deformation_gradient(u)
         energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, self.mu, self.lam0))
         energy = self.with_surface_energies(energy, u)
         w = self.kinematics.volume_weight()
@@ -251,7 +288,7 @@ class EquilibriumProblem(GelBody):
         self._scratch = ngs.GridFunction(V)
         self._target = ngs.GridFunction(V)
         self._renew_free_dofs()
-        self._indicator = self.margin_indicator(self._scratch)
+        self._indicator = self.margin_indicator(*self.parts(self._scratch))
         self._indicator_order = 2 * self.order + 2
 
     def _renew_free_dofs(self) -> None:
@@ -274,7 +311,7 @@ class EquilibriumProblem(GelBody):
 
     @property
     def displacement(self) -> ngs.GridFunction:
-        return self.gridfunction
+        return self.parts(self.gridfunction)[0]
 
     def residual(self, x, out) -> None:
         self.form.Apply(x, out)
@@ -288,13 +325,13 @@ class EquilibriumProblem(GelBody):
 
     def prescribed(self, out) -> None:
         out[:] = 0.0
-        target = self._target
+        target = self.parts(self._target)[0]  # a view of the displacement part of self._target
         for p in self._prescribed:
             if self.mesh.dim == 1:
                 target.Set(p.value)  # 1D spaces have no boundary evaluator; only the end dof is used
             else:
                 target.components[p.component].Set(p.value, ngs.BND, definedon=self.mesh.Boundaries(p.boundary))
-        out.data = target.vec
+        out.data = self._target.vec
 
     def admissible(self, x) -> bool:
         self._scratch.vec.data = x
@@ -310,6 +347,15 @@ class EquilibriumProblem(GelBody):
     # --------------------------------------------------------------------- outputs
     def stress(self) -> ngs.CoefficientFunction:
         return self.cauchy_stress(self.displacement, self.mu)
+
+    def axial_force(self, *, region: str | None = None) -> float:
+        """Net axial force, ``int w det(F') sigma_zz / F'_zz`` over the reference section (or one
+        ``region`` of it): the nominal axial stress from the Cauchy stress, integrated with the
+        kinematics' volume weight (a polar radial line: the whole annular section). In plane
+        strain the reaction of the axial constraint; zero at an equilibrium of generalized
+        plane strain."""
+        F = self.deformation_gradient(self.displacement)
+        return self.integrate(ngs.Det(F) * self.stress()[2, 2] / F[2, 2], region=region)
 
     def volume_ratio(self) -> ngs.CoefficientFunction:
         """``J`` relative to the dry state in gel regions (to the bonded state in films)."""

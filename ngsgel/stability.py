@@ -41,14 +41,20 @@ def free_matrix(mat: ngs.BaseMatrix, free_mask: np.ndarray) -> sp.csc_matrix:
 
 
 def mass_matrix(problem) -> ngs.BaseMatrix:
-    """Volume-weighted L2 Gram matrix of the displacement space (same sparsity as the tangent).
+    """Volume-weighted L2 Gram matrix of the displacement space (same sparsity as the tangent;
+    an axial strain unknown enters as ``int w e f``, which keeps it positive definite).
     A problem with other unknowns than a displacement (a shell) provides its own ``mass_matrix``."""
     if hasattr(problem, "mass_matrix"):
         return problem.mass_matrix()
     V = problem.space
-    u, v = V.TnT()
+    if problem.kinematics.axial_unknown:  # the axial strain with unit weight
+        (u, a), (v, b) = V.TnT()
+        gram = ngs.InnerProduct(u, v) + a * b
+    else:
+        u, v = V.TnT()
+        gram = ngs.InnerProduct(u, v)
     form = ngs.BilinearForm(V, symmetric=True)
-    form += problem.kinematics.volume_weight() * ngs.InnerProduct(u, v) * ngs.dx
+    form += problem.kinematics.volume_weight() * gram * ngs.dx
     form.Assemble()
     return form.mat
 

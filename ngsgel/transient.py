@@ -164,6 +164,9 @@ class TransientProblem(GelBody):
                  materials: Mapping[str, Material] | Material, lam0: float, mu0,
                  order: int = 2, mu_order: int | None = None, lumped: bool | None = None,
                  inverse: str = "umfpack", viscosity: float = 0.0):
+        if kinematics.axial_unknown:
+            raise ValueError(f"kinematics {kinematics.name!r} (an axial unknown) is not supported by transient "
+                             "problems; use it with EquilibriumProblem")
         # The mass term and the content integrals must use the same points for the balance to
         # close to round-off: pinned, 2 order (pass the same to an EquilibriumProblem to compare).
         super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order,

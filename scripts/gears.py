@@ -3,8 +3,11 @@
 A gel annulus ``Ri = 1 < r < Ro = 2`` (Nv = 1e-3, chi = 0.5, free swollen at mu = 0) carries bonded
 neo-Hookean films inside (thickness ``Ri/(Ri/tfi)``) and outside (``Ro/(Ro/tfo)``), moduli
 ``Efi``, ``Efo`` in units of ``Es = 3 Nv`` (the thesis's 3NkT), Poisson ratio ``--nu-film``
-(0.3: the thesis does not give it). ``mu`` falls from 0 until a free plane-strain gel would keep
-``--volume`` of its volume.
+(0.3: the thesis does not give it). ``mu`` falls from 0 until a free gel would keep ``--volume`` of
+its volume. ``--axial fixed`` (default, MODEL.md): plane strain, the axial stretch stays at the
+reference; ``--axial free``: generalized plane strain, a long tube with free ends (one uniform
+axial stretch of gel and films, a global unknown fixed by zero net axial force; the free gel of
+the end volume then shrinks isotropically).
 
 Single run (default): the driver follows ``mu`` with a stability check at every step; the first
 loss of stability is located (critical ``mu``, volume fraction, film hoop stresses, wave numbers
@@ -42,7 +45,7 @@ import ngsolve as ngs  # noqa: E402
 from scipy.sparse.linalg import LinearOperator, eigsh  # noqa: E402
 
 import geometries as geo  # noqa: E402
-from ngsgel import EquilibriumProblem, PlaneStrain  # noqa: E402
+from ngsgel import EquilibriumProblem, GeneralizedPlaneStrain, PlaneStrain  # noqa: E402
 from ngsgel.continuation import BorderedCorrector, follow_path  # noqa: E402
 from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset,  # noqa: E402
                               thesis_ring_estimate)
@@ -69,10 +72,11 @@ class Scene:
     ro_tfo: float = 100.0
     nu_film: float = 0.3
     volume: float = 0.7
+    axial: str = "fixed"  # "fixed": plane strain; "free": generalized plane strain (free ends)
 
     def tube(self) -> FilmTube:
         return FilmTube(Ri=RI, Ro=RO, tfi=RI / self.ri_tfi, tfo=RO / self.ro_tfo, Efi=self.efi * ES,
-                        Efo=self.efo * ES, nu_film=self.nu_film, Nv=NV, chi=CHI)
+                        Efo=self.efo * ES, nu_film=self.nu_film, Nv=NV, chi=CHI, axial=self.axial)
 
 
 @dataclass(frozen=True)
@@ -94,6 +98,8 @@ def check_scene(scene: Scene) -> None:
         value = getattr(scene, name)
         if not isinstance(value, (int, float)) or not math.isfinite(value) or not lo <= value <= hi:
             raise ValueError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
+    if scene.axial not in ("fixed", "free"):
+        raise ValueError(f"axial must be 'fixed' or 'free', got {scene.axial!r}")
     if RI / scene.ri_tfi + RO / scene.ro_tfo >= RO - RI:
         raise ValueError("ri_tfi, ro_tfo: the films must be thinner than the wall together")
 
@@ -124,7 +130,8 @@ class GearModel:
         # NGSolve's sparse LDL^T (no pivoting; it factors the indefinite tangents past the onset,
         # and a failed factorisation would show as a Newton failure): 8x faster than UMFPACK's
         # LU here (0.21 s against 1.7 s per factorisation at 22k dofs)
-        self.problem = EquilibriumProblem(self.mesh, kinematics=PlaneStrain(), materials=t.materials(),
+        kinematics = PlaneStrain() if scene.axial == "fixed" else GeneralizedPlaneStrain()
+        self.problem = EquilibriumProblem(self.mesh, kinematics=kinematics, materials=t.materials(),
                                           lam0=t.lam0, mu=t.mu0, order=res.order, inverse="sparsecholesky")
         # supports on the gel's inner surface, where the structured mesh has vertices at 0, pi/2, pi
         pin_rigid_modes(self.problem, radius=RI)
@@ -158,7 +165,7 @@ class GearModel:
 
     def qoi(self) -> dict:
         u = self.problem.displacement
-        q = {"volume_fraction": self.volume_fraction,
+        q = {"volume_fraction": self.volume_fraction, "axial_stretch": self.problem.axial_stretch,
              "hoop_inner": lambda: self.mean_hoop_stress(FILM_INNER),
              "hoop_outer": lambda: self.mean_hoop_stress(FILM_OUTER)}
         for film in ("inner", "outer"):
@@ -254,11 +261,11 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
     phi = mirror_symmetric_mode(model, modes[:, :2])
     mode = mode_function(p, phi)
     qoi = {k: f() for k, f in model.qoi().items()}
-    mode_waves = {film: model.waves(mode, film) for film in ("inner", "outer")}
+    mode_waves = {film: model.waves(p.parts(mode)[0], film) for film in ("inner", "outer")}
     located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
     record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": negative_after,
               "eigenvalues_after": [float(v) for v in eigenvalues],
-              "volume_fraction_cr": qoi["volume_fraction"],
+              "volume_fraction_cr": qoi["volume_fraction"], "axial_stretch_cr": qoi["axial_stretch"],
               "hoop_inner_cr": qoi["hoop_inner"], "hoop_outer_cr": qoi["hoop_outer"],
               "mode_k_inner": mode_waves["inner"]["k"], "mode_k_outer": mode_waves["outer"]["k"],
               "mode_amplitude_ratio_inner_outer": mode_waves["inner"]["amplitude"] / mode_waves["outer"]["amplitude"],
@@ -570,6 +577,7 @@ def run_single(scene: Scene, res: Resolution, out: str, *, threshold: float, pro
                                "seconds": time.perf_counter() - start - summary["onset_seconds"]}
     if post_buckling:
         summary["final"] = {"mu": p.mu.Get(), "volume_fraction": model.volume_fraction(),
+                            "axial_stretch": p.axial_stretch(),
                             "negative_eigenvalues": negative_count_of(p) if final_negative is None else final_negative,
                             **classify(model, threshold)}
     else:  # the gear's type predicted by the film the critical mode lives on
@@ -737,6 +745,9 @@ def _main(argv=None):
     parser.add_argument("--ro-tfo", type=float, default=100.0, help="Ro/tfo")
     parser.add_argument("--nu-film", type=float, default=0.3)
     parser.add_argument("--volume", type=float, default=0.7, help="final volume fraction of a free gel")
+    parser.add_argument("--axial", choices=("fixed", "free"), default="fixed",
+                        help="fixed: plane strain (MODEL.md); free: generalized plane strain, a long tube with "
+                             "free ends (uniform axial stretch, zero axial force)")
     parser.add_argument("--n-theta", type=int, default=None, help="cells around (multiple of 4)")
     parser.add_argument("--order", type=int, default=None)
     parser.add_argument("--maxh", type=float, default=None, help="gel cell size away from the films")
@@ -762,7 +773,7 @@ def _main(argv=None):
     args = parser.parse_args(argv)
     quick = args.quick or bool(os.environ.get("CI"))
     scene = Scene(efi=args.efi, efo=args.efo, ri_tfi=args.ri_tfi, ro_tfo=args.ro_tfo, nu_film=args.nu_film,
-                  volume=args.volume)
+                  volume=args.volume, axial=args.axial)
     default = QUICK if quick else Resolution()
     res = Resolution(n_theta=args.n_theta or default.n_theta, order=args.order or default.order,
                      maxh=args.maxh or default.maxh, film_layers=args.film_layers or default.film_layers)

@@ -5,11 +5,12 @@ import math
 import numpy as np
 import ngsolve as ngs
 import pytest
-from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere
+from netgen.occ import X, Y, Box, Circle, Glue, OCCGeometry, Pnt, Rectangle, Sphere
 from ngsolve.meshes import Make1DMesh, MakeStructured2DMesh, MakeStructured3DMesh
 
-from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, NeoHookeanFilm, NewtonError,
-                    PlaneStrain, Solid3D, SphericalSymmetric, ramp)
+from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, GeneralizedPlaneStrain, NeoHookeanFilm,
+                    NewtonError, PlaneStrain, Solid3D, SphericalSymmetric, ramp)
+from ngsgel.kinematics import PolarGeneralizedPlaneStrain
 
 
 def unit_square():
@@ -313,3 +314,102 @@ def test_fix_dof_after_solve_fixes_it_at_zero_and_rejects_bad_dofs():
         prob.fix_dof(-1)
     with pytest.raises(ValueError, match="no mesh vertex"):
         vertex_dof(prob, point=(0.3, 0.3), component=0)
+
+
+# ----------------------------------------------------------------------------- generalized plane strain
+def _gps_problem(kind, gel, lam0, mu, materials=None):
+    """A quarter section (rollers on the symmetry lines) or a radial line of an annulus."""
+    if kind == "plane":
+        mesh = unit_square()
+        prob = EquilibriumProblem(mesh, kinematics=GeneralizedPlaneStrain(), materials=materials or gel, lam0=lam0,
+                                  mu=mu, order=2)
+        prob.fix("left", "x")
+        prob.fix("bottom", "y")
+    else:
+        mesh = Make1DMesh(8, mapping=lambda t: 1.0 + t)
+        prob = EquilibriumProblem(mesh, kinematics=PolarGeneralizedPlaneStrain(), materials=materials or gel,
+                                  lam0=lam0, mu=mu, order=2)
+    return mesh, prob
+
+
+@pytest.mark.parametrize("kind", ["plane", "polar"])
+@pytest.mark.parametrize("Nv, chi, mu0, mu1", [(1e-3, 0.5, 0.0, -5e-4), (1e-2, 0.2, -0.01, 0.0)])
+def test_generalized_plane_strain_free_swelling_is_isotropic(kind, Nv, chi, mu0, mu1):
+    """A free section of a long gel body with free ends swells or shrinks isotropically: the
+    axial stretch (the global unknown) equals the in-plane stretches, both ``lam_free(mu1) /
+    lam_free(mu0)``, the stress and the net axial force vanish."""
+    gel = FloryRehnerGel(Nv=Nv, chi=chi)
+    lam0 = gel.lam_free(mu0)
+    mesh, prob = _gps_problem(kind, gel, lam0, mu0)
+    ramp(prob, prob.mu, mu1)
+    ratio = gel.lam_free(mu1) / lam0
+    assert prob.axial_stretch() == pytest.approx(ratio, rel=1e-10)
+    u = prob.displacement
+    points = [(0.3, 0.7), (1.0, 1.0)] if kind == "plane" else [(1.2,), (2.0,)]
+    for x in points:
+        value = np.atleast_1d(u(mesh(*x)))
+        assert value == pytest.approx((ratio - 1.0) * np.array(x), rel=1e-8)
+    sigma = prob.stress()
+    for i in range(3):
+        assert abs(prob.integrate(sigma[i, i])) < 1e-10 * Nv
+    assert abs(prob.axial_force()) < 1e-10 * Nv
+
+
+def test_generalized_plane_strain_with_axial_dof_fixed_is_plane_strain():
+    """Holding the axial unknown (``fix_dof(axial_dof)``) recovers plane strain: the same state
+    as ``PlaneStrain`` to round-off, and the axial force is the constraint's reaction, the
+    closed form ``sigma_zz`` times the current area of a plane-strain shrunk gel."""
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0, mu = gel.lam_free(0.0), -5e-4
+    mesh, gps = _gps_problem("plane", gel, lam0, 0.0)
+    gps.fix_dof(gps.axial_dof)
+    plane = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=gel, lam0=lam0, mu=0.0, order=2)
+    plane.fix("left", "x")
+    plane.fix("bottom", "y")
+    for prob in (gps, plane):
+        ramp(prob, prob.mu, mu)
+    assert gps.axial_stretch() == 1.0
+    ndof = plane.space.ndof
+    assert np.max(np.abs(gps.save_state()[:ndof] - plane.save_state())) < 1e-12
+    lam = gel.lam_plane_strain(mu, lam0)
+    J = lam**2 * lam0
+    sigma_zz = gel.Nv / J * (lam0**2 - 1) + gel._mix(J) - mu
+    assert gps.axial_force() == pytest.approx(sigma_zz * (lam / lam0) ** 2, rel=1e-8)
+    assert plane.axial_force() == pytest.approx(gps.axial_force(), rel=1e-12)
+    assert sigma_zz > 0  # the shrinking gel pulls on its axial constraint
+
+
+def test_generalized_plane_strain_bilayer_has_zero_net_axial_force():
+    """A gel bonded to a film (left and right halves of a square section) under generalized plane
+    strain: the film is squeezed axially and the gel pulled, and the two axial forces (computed
+    from the Cauchy stress, not from the residual) cancel to round-off; the energy per unit
+    length is below plane strain's (a minimum over a larger set)."""
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    lam0 = gel.lam_free(0.0)
+    body = Rectangle(1, 1).Face()
+    body.faces.name = "gel"
+    film = Rectangle(1, 1).Face().Move((1, 0, 0))
+    film.faces.name = "film"
+    body.edges.Min(X).name = "left"
+    for face in (body, film):
+        face.edges.Min(Y).name = "bottom"
+    shape = OCCGeometry(Glue([body, film]), dim=2)
+    mesh = ngs.Mesh(shape.GenerateMesh(maxh=0.25))
+    materials = {"gel": gel, "film": NeoHookeanFilm(E=3e-3, nu=0.3)}
+    energies = {}
+    for kin in (GeneralizedPlaneStrain(), PlaneStrain()):
+        # the energy's quadrature rule is the one of ``integrate`` (order 2 p + 2): the residual's
+        # axial entry is then the axial force integral on the same points
+        prob = EquilibriumProblem(mesh, kinematics=kin, materials=materials, lam0=lam0, mu=0.0, order=2,
+                                  quadrature_order=6)
+        prob.fix("left", "x")
+        prob.fix("bottom", "y")
+        ramp(prob, prob.mu, -5e-4)
+        energies[kin.name] = prob.energy()
+        if kin.axial_unknown:
+            gps = prob
+    gel_force, film_force = gps.axial_force(region="gel"), gps.axial_force(region="film")
+    assert gel_force > 0 > film_force
+    assert abs(gel_force + film_force) < 1e-10 * gel_force
+    assert 1.0 > gps.axial_stretch() > gel.lam_free(-5e-4) / lam0
+    assert energies["generalized_plane"] < energies["plane"]

@@ -3,6 +3,7 @@ supports, the foundation moduli of the gel and the gears script on a coarse case
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import ngsolve as ngs
@@ -10,7 +11,7 @@ import pytest
 from ngsolve.meshes import Make1DMesh
 
 import geometries as geo
-from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp
+from ngsgel import EquilibriumProblem, FloryRehnerGel, GeneralizedPlaneStrain, PlaneStrain, ramp
 from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, FilmTube, RadialTube, gel_plane_strain_moduli, linear_film_stresses,
                               linear_switch, ring_onset)
 from ngsgel.kinematics import PolarPlaneStrain
@@ -117,12 +118,20 @@ def test_linear_switch_thesis_lame_closed_form():
     assert efi / efo * (g - a_o) / (g + a_i) == pytest.approx(math.sqrt(efi / (2 * efo)), rel=1e-3)
 
 
-def pinned_annulus(tube, radius):
+def pinned_annulus(tube, radius, *, kinematics=None, quadrature_order=None):
     bundle = geo.tube_plane(Ri=1.0, Ro=2.0, tfi=tube.tfi, tfo=tube.tfo, maxh=0.5, n_theta=64, quad=True)
-    prob = EquilibriumProblem(bundle.mesh, kinematics=PlaneStrain(), materials=tube.materials(), lam0=tube.lam0,
-                              mu=0.0, order=2)
+    prob = EquilibriumProblem(bundle.mesh, kinematics=kinematics or PlaneStrain(), materials=tube.materials(),
+                              lam0=tube.lam0, mu=0.0, order=2, quadrature_order=quadrature_order)
     pin_rigid_modes(prob, radius=radius)
     return bundle, prob
+
+
+def mean_hoop_stresses(bundle, prob):
+    sigma = prob.stress()
+    e_t = ngs.CF((-ngs.y, ngs.x)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+    sigma2 = ngs.CF((sigma[0, 0], sigma[0, 1], sigma[1, 0], sigma[1, 1]), dims=(2, 2))
+    hoop = ngs.InnerProduct(sigma2 * e_t, e_t)
+    return [prob.integrate(hoop, region=region) / bundle.region_measures[region] for region in (FILM_INNER, FILM_OUTER)]
 
 
 def test_pinned_annulus_matches_radial_model_with_zero_reactions(tube, radial_reference):
@@ -142,12 +151,8 @@ def test_pinned_annulus_matches_radial_model_with_zero_reactions(tube, radial_re
         prob.residual(prob.state, residual)
         reactions = residual.FV().NumPy()[~prob.free_mask]
         assert np.max(np.abs(reactions)) < 1e-8 * np.max(np.abs(unbalanced.FV().NumPy()))
-        sigma = prob.stress()
+        hoops[radius] = mean_hoop_stresses(bundle, prob)
         e_t = ngs.CF((-ngs.y, ngs.x)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
-        sigma2 = ngs.CF((sigma[0, 0], sigma[0, 1], sigma[1, 0], sigma[1, 1]), dims=(2, 2))
-        hoop = ngs.InnerProduct(sigma2 * e_t, e_t)
-        hoops[radius] = [prob.integrate(hoop, region=region) / bundle.region_measures[region]
-                         for region in (FILM_INNER, FILM_OUTER)]
         # the discrete annulus is symmetric only under rotations by 2 pi / n_theta: a tangential
         # displacement at the level of the geometry error, not of the pins
         u = prob.displacement
@@ -157,6 +162,33 @@ def test_pinned_annulus_matches_radial_model_with_zero_reactions(tube, radial_re
     assert hoops[1.0][0] == pytest.approx(radial_reference.sigma_inner, rel=5e-3)
     assert hoops[1.0][1] == pytest.approx(radial_reference.sigma_outer, rel=5e-3)
     assert hoops[2.0] == pytest.approx(hoops[1.0], rel=1e-7)
+
+
+def test_generalized_plane_strain_tube_has_zero_axial_force_and_matches_radial_model(tube):
+    """The coated tube with free ends (generalized plane strain, one axial stretch for gel and
+    films): the 2D annulus held by the three pins carries no pin force and no net axial force
+    (films squeezed axially, the gel pulled, cancelling to round-off: the energy's quadrature rule
+    is the one of the force integral), and its axial stretch and film hoop stresses are those of
+    the 1D radial model with a free axial stretch. The tube shrinks axially less than a free gel
+    (the films resist) but more than not at all."""
+    free = replace(tube, axial="free")
+    radial = RadialTube(free, order=4, gel_cells=64).solve(MU)
+    bundle, prob = pinned_annulus(free, 1.0, kinematics=GeneralizedPlaneStrain(), quadrature_order=6)
+    prob.mu.Set(MU)
+    unbalanced = prob.state.CreateVector()
+    prob.residual(prob.state, unbalanced)
+    prob.mu.Set(0.0)
+    ramp(prob, prob.mu, MU)
+    residual = prob.state.CreateVector()
+    prob.residual(prob.state, residual)
+    assert np.max(np.abs(residual.FV().NumPy()[~prob.free_mask])) < 1e-8 * np.max(np.abs(unbalanced.FV().NumPy()))
+    forces = {region: prob.axial_force(region=region) for region in (FILM_INNER, "gel", FILM_OUTER)}
+    assert forces["gel"] > 0 > max(forces[FILM_INNER], forces[FILM_OUTER])
+    assert abs(sum(forces.values())) < 1e-10 * forces["gel"]
+    assert prob.axial_stretch() == pytest.approx(radial.axial_stretch, rel=1e-5)
+    assert GEL.lam_free(MU) / free.lam0 < radial.axial_stretch < 1.0
+    assert mean_hoop_stresses(bundle, prob) == pytest.approx([radial.sigma_inner, radial.sigma_outer], rel=5e-3)
+    assert free.mu_at_volume_fraction(0.7) == pytest.approx(GEL.mu_free(free.lam0 * 0.7 ** (1 / 3)), rel=1e-14)
 
 
 def test_pin_rigid_modes_rejects_bad_input(tube):
