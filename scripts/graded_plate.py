@@ -43,10 +43,11 @@ import ngsolve as ngs
 
 from geometries import plate_section
 from geometries.fields import radial_grading
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path, ramp
 from ngsgel.continuation import PathResult, StabilityOptions
 from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.patterns import penetration_depth
 from ngsgel.supports import vertex_dof
 
 CHI = 0.5
@@ -341,6 +342,188 @@ def plot(run_dir, radii, radial, hoop, amplitude, *, history_path, summary) -> N
     plt.close(fig)
 
 
+# --------------------------------------------------------------------------- onset curve mu_c(k)
+
+@dataclass
+class WaveOnset:
+    """First loss of stability of one wave number ``k`` on the flat (axisymmetric) path."""
+
+    k: int
+    found: bool  # False: k stays stable up to the target
+    soft_stretch: float  # bisected onset (NaN if not found)
+    mu: float
+    depth_half: float  # penetration depths of the critical mode's deflection (NaN if not found)
+    depth_5pct: float
+    lowest_end: float  # lowest eigenvalue of k at the end of the path (the target)
+
+
+def mode_deflection(hs: HarmonicStability, k: int, vector: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """|w| = |b| of a mode of wave number ``k`` on the mid-plane at ``radii``, over its maximum."""
+    b = hs.mode(k, vector)[1]
+    mesh = hs.problem.mesh
+    w = np.abs([b(mesh(float(r), 0.0)) for r in radii])
+    return w / np.max(w)
+
+
+def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
+                step: float, ks: list[int], tolerance: float = 1e-6, radii: np.ndarray | None = None,
+                progress=None) -> list[WaveOnset]:
+    """The onset ``mu_c(k)`` of every wave number in ``ks`` on the flat path: the soft stretch is
+    ramped to ``target`` in steps of at most ``step`` (no branch switching: the mid-plane symmetric
+    flat state is followed also where it is unstable), every state is scanned over ``ks``, and each
+    k whose lowest eigenvalue first turns negative between two states is bisected alone from the
+    earlier one (``first_harmonic_instability`` with ``ks = [k]``) to ``tolerance`` in the stretch.
+    The critical mode's deflection gives the penetration depths: the distance from the rim over
+    which ``|w|`` stays above half, and above 5 %, of its value at the rim (``radii``: mid-plane
+    samples, default 1001 points on (0, 1]). The problem is left at the end of the path."""
+    radii = np.linspace(0.0, 1.0, 1001)[1:] if radii is None else radii
+    hs = HarmonicStability(prob)
+    states = [(stretch.Get(), prob.save_state(), hs.scan(ks, exclude_rigid=True))]
+    if states[0][2].unstable:
+        raise ValueError(f"the start at s = {stretch.Get():g} is already unstable for k in {states[0][2].unstable}")
+
+    def on_step(value, _newton) -> bool:
+        states.append((value, prob.save_state(), hs.scan(ks, exclude_rigid=True)))
+        if progress is not None:
+            progress(f"s = {value:.4f} mu = {mismatch_strain(value, *nv)[0]:+.5f}  unstable k: {states[-1][2].unstable}")
+        return False
+
+    ramp(prob, stretch, target, step=step, max_step=step, on_step=on_step)
+    end = (stretch.Get(), prob.save_state())
+    lowest_end = states[-1][2].lowest
+    onsets = []
+    for k in ks:
+        first = next((i for i, (_, _, scan) in enumerate(states) if k in scan.unstable), None)
+        if first is None:
+            onsets.append(WaveOnset(k, False, math.nan, math.nan, math.nan, math.nan, lowest_end[k]))
+            continue
+        (s_lo, x_lo, _), (s_hi, _, _) = states[first - 1], states[first]
+        prob.restore_state(x_lo)
+        stretch.Set(s_lo)
+        onset = first_harmonic_instability(prob, stretch, s_hi, ks=[k], step=s_hi - s_lo, tolerance=tolerance,
+                                           stability=hs)
+        if not onset.found:
+            raise RuntimeError(f"k = {k}: the instability seen at s = {s_hi} was not found again on bisection")
+        w = mode_deflection(hs, k, onset.spectrum.modes[:, 0], radii)
+        onsets.append(WaveOnset(k, True, onset.parameter, mismatch_strain(onset.parameter, *nv)[0],
+                                penetration_depth(w, radii, fraction=0.5), penetration_depth(w, radii, fraction=0.05),
+                                lowest_end[k]))
+        if progress is not None:
+            progress(f"k = {k}: mu_c = {onsets[-1].mu:+.6f}, depth (half) {onsets[-1].depth_half:.3f}")
+    prob.restore_state(end[1])
+    stretch.Set(end[0])
+    return onsets
+
+
+def local_minima(onsets: list[WaveOnset]) -> list[WaveOnset]:
+    """The wave numbers whose onset ``mu_c`` is lower than (or equal to) both neighbours' (a k that
+    never goes unstable counts as +infinity; the ends of the scanned range count if lower than
+    their one neighbour), lowest ``mu_c`` first."""
+    mu = np.array([o.mu if o.found else math.inf for o in onsets])
+    padded = np.concatenate([[math.inf], mu, [math.inf]])
+    found = [o for i, o in enumerate(onsets) if o.found and mu[i] <= padded[i] and mu[i] <= padded[i + 2]]
+    return sorted(found, key=lambda o: o.mu)
+
+
+def onset_curve_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
+                     maxh: float = 0.02, layers: int = 2, order: int = 3, mu0: float = -1.0, kmax: int = 40,
+                     quick: bool = False) -> dict:
+    """``onset_curve`` for wave numbers 1 .. kmax of one graded disk, ``onset_curve.csv`` and a
+    summary: the first-unstable ``k_c``, ``mu_c``, and the edge-wave minimum (the lowest local
+    minimum of ``mu_c(k)`` other than ``k_c``'s, if any) with its penetration depths."""
+    if quick:
+        maxh, order, kmax = max(maxh, 0.05), 2, min(kmax, 8)
+    if not (isinstance(kmax, int) and kmax >= 2):
+        raise ValueError(f"kmax must be an integer >= 2, got {kmax!r}")
+    run_dir = RunDirectory(out, params=dict(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order,
+                                            mu0=mu0, kmax=kmax, chi=CHI, quick=quick, mode="onset curve"))
+    start = time.perf_counter()
+    prob, stretch = build(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=mu0)
+    stretch_end = FloryRehnerGel(Nv=min(n0, nR), chi=CHI).lam_free(0.0)
+    step = (stretch_end - stretch.Get()) / (25 if quick else 60)
+    onsets = onset_curve(prob, stretch, nv=(n0, nR), target=stretch_end, step=step, ks=list(range(1, kmax + 1)),
+                         progress=Progress(f"onset curve p = {p:g}, t = {t:g}"))
+    with History(run_dir.file("onset_curve.csv")) as table:
+        for o in onsets:
+            table.append({"k": o.k, "found": o.found, "soft_stretch_c": o.soft_stretch, "mu_c": o.mu,
+                          "depth_half": o.depth_half, "depth_5pct": o.depth_5pct, "lowest_end": o.lowest_end})
+    minima = local_minima(onsets)
+    summary: dict = {"p": p, "t": t, "maxh": maxh, "layers": layers, "order": order, "kmax": kmax,
+                     "ndof_section": prob.space.ndof, "found": bool(minima),
+                     "local_minima": [{"k": o.k, "mu_c": o.mu} for o in minima],
+                     "k_most_unstable_end": min(onsets, key=lambda o: o.lowest_end).k}
+    if minima:
+        first, edge = minima[0], next((o for o in minima[1:] if o.k > minima[0].k), None)
+        summary.update(k_critical=first.k, mu_critical=first.mu, depth_half_critical=first.depth_half,
+                       depth_5pct_critical=first.depth_5pct)
+        if edge is not None:
+            summary.update(k_edge=edge.k, mu_edge=edge.mu, depth_half_edge=edge.depth_half,
+                           depth_5pct_edge=edge.depth_5pct, mu_gap_edge=edge.mu - first.mu)
+    summary["wall_s"] = time.perf_counter() - start
+    run_dir.write_json("summary.json", summary)
+    return summary
+
+
+def onset_curves(out: str, ps, ts, **options) -> list[dict]:
+    """``onset_curve_case`` for every (p, t) pair of ``ps`` x ``ts``, one folder each, the table
+    ``onset_curves.csv`` and the figure ``onset_curves.png`` (``mu_c`` against k) in ``out``."""
+    run_dir = RunDirectory(out, params={"ps": list(ps), "ts": list(ts), **options})
+    keys = ("k_critical", "mu_critical", "depth_half_critical", "k_edge", "mu_edge", "mu_gap_edge",
+            "depth_half_edge", "depth_5pct_edge", "k_most_unstable_end", "ndof_section", "wall_s")
+    rows, curves = [], {}
+    with History(run_dir.file("onset_curves.csv")) as table:
+        for p in ps:
+            for t in ts:
+                folder = run_dir.file(f"p{p:g}_t{t:g}")
+                summary = onset_curve_case(str(folder), p=p, t=t, **options)
+                rows.append({"p": p, "t": t, **{k: summary.get(k, math.nan) for k in keys}})
+                table.append(rows[-1])
+                curves[(p, t)] = np.genfromtxt(folder / "onset_curve.csv", delimiter=",", names=True)
+    if len(ts) > 1:
+        rows_fit = [r for r in rows if np.isfinite(r["k_edge"])]
+        if len({r["t"] for r in rows_fit}) >= 3:
+            fit = power_law_fit([r["t"] for r in rows_fit], [r["k_edge"] for r in rows_fit])
+            run_dir.write_json("k_edge_fit.json", fit)
+            print(f"k_edge ~ (t/R)^b: b = {fit['exponent']:.3f} +- {fit['standard_error']:.3f} ({fit['points']} points)")
+    plot_onset_curves(curves, run_dir.file("onset_curves.png"))
+    for line in rows:
+        print("  ".join(f"{k} {v:.5g}" if isinstance(v, float) else f"{k} {v}" for k, v in line.items()))
+    return rows
+
+
+def power_law_fit(x, y) -> dict:
+    """Least-squares fit ``log y = a + b log x``: ``b``, its standard error and the points used."""
+    lx, ly = np.log(np.asarray(x, dtype=float)), np.log(np.asarray(y, dtype=float))
+    n = len(lx)
+    if n < 3:
+        raise ValueError(f"a power-law fit with an error needs >= 3 points, got {n}")
+    A = np.column_stack([np.ones(n), lx])
+    coef, *_ = np.linalg.lstsq(A, ly, rcond=None)
+    residual = ly - A @ coef
+    sigma2 = float(residual @ residual) / (n - 2)
+    covariance = sigma2 * np.linalg.inv(A.T @ A)
+    return {"exponent": float(coef[1]), "standard_error": float(math.sqrt(covariance[1, 1])),
+            "prefactor": float(math.exp(coef[0])), "points": n}
+
+
+def plot_onset_curves(curves: dict, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for i, ((p, t), data) in enumerate(curves.items()):
+        ax.plot(data["k"], data["mu_c"], "o-", ms=3, color=f"C{i % 10}", label=f"p = {p:g}, t/R = {t:g}")
+    ax.set_xlabel("wave number k")
+    ax.set_ylabel("onset mu_c(k) on the flat path")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
 def add_grading_options(parser, *, t: float, t_help: str, maxh: float, kmax: int) -> None:
     """The options every graded-gel scene shares: exponent(s), thickness, mesh, start, scan."""
     parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
@@ -360,10 +543,19 @@ def main(argv=None) -> dict:
     parser.add_argument("--layers", type=int, default=2, help="cells through the thickness (even)")
     parser.add_argument("--imperfection", type=float, default=0.0,
                         help="top shear dead load / (E0 t) (default 0: branch switching, no imperfection)")
+    parser.add_argument("--onset-curve", action="store_true",
+                        help="onset mu_c(k) of every k = 1 .. kmax on the flat path, for every p (--p or --sweep) "
+                             "and t (--t or --t-sweep)")
+    parser.add_argument("--t-sweep", type=float, nargs="+", help="with --onset-curve: these thicknesses instead of --t")
     args = parser.parse_args(argv)
     options = dict(n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, layers=args.layers, order=args.order,
                    mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection,
                    quick=quick_run(args))
+    if args.onset_curve:
+        options.pop("imperfection")
+        ts = args.t_sweep or [options.pop("t")]
+        options.pop("t", None)
+        return {"onset_curves": onset_curves(args.out, args.sweep or [args.p], ts, **options)}
     if args.sweep:
         return {"sweep": sweep(args.out, args.sweep, **options)}
     summary = run(args.out, p=args.p, **options)

@@ -64,3 +64,57 @@ def test_graded_tube_rejects_bad_input():
         graded_tube.build(n0=1e-2, nL=1e-3, p=0, t=0.02, L=2, maxh=0.1, order=2, mu0=-1.0)
     with pytest.raises(ValueError, match="kmax"):
         graded_tube.run("unused", kmax=1)
+
+
+def test_onset_curve_minimum_is_the_first_instability_and_each_onset_is_bracketed():
+    # mu_c(k) of every k on the flat path (coarse softer-edge disk, t/R = 0.05): its lowest
+    # value is the first loss of stability of all ks together (same k, same stretch within the
+    # bisection tolerance), and each bisected onset brackets the sign change of its own k's
+    # lowest eigenvalue to that tolerance
+    from ngsgel import FloryRehnerGel
+    from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
+
+    # the state at a given mu does not depend on the path: start at mu0 = -0.1 (onset ~ -0.017)
+    prob, stretch = graded_plate.build(n0=1e-2, nR=1e-3, p=10.0, t=0.05, maxh=0.1, order=2, mu0=-0.1)
+    start = (stretch.Get(), prob.save_state())
+    target = FloryRehnerGel(Nv=1e-3, chi=graded_plate.CHI).lam_free(0.0)
+    step, tolerance, ks = (target - stretch.Get()) / 8, 1e-5, [1, 2, 3, 4]
+    first = first_harmonic_instability(prob, stretch, target, ks=ks, step=step, max_step=step, tolerance=tolerance)
+    prob.restore_state(start[1])
+    stretch.Set(start[0])
+    onsets = graded_plate.onset_curve(prob, stretch, nv=(1e-2, 1e-3), target=target, step=step, ks=ks,
+                                      tolerance=tolerance)
+    assert first.found and not onsets[0].found  # k = 1 (beyond its rigid motions) stays stable
+    lowest = min((o for o in onsets if o.found), key=lambda o: o.mu)
+    assert lowest.k == first.k
+    assert abs(lowest.soft_stretch - first.parameter) <= tolerance
+    assert graded_plate.local_minima(onsets)[0].k == lowest.k
+    hs = HarmonicStability(prob)
+    for o in onsets[2:]:
+        signs = []
+        for s in (o.soft_stretch - tolerance, o.soft_stretch + tolerance):
+            stretch.Set(s)
+            prob.solve()
+            signs.append(hs.spectrum(o.k, count=1).negative)
+        assert signs == [0, 1], (o.k, signs)
+    # the critical modes of higher k are confined closer to the rim (shorter decay length)
+    depths = [o.depth_half for o in onsets[1:]]
+    assert all(0 < d < 1 for d in depths) and np.all(np.diff(depths) < 0), depths
+    assert all(o.depth_5pct > o.depth_half for o in onsets[1:])
+
+
+def test_local_minima_and_power_law_fit():
+    make = lambda k, mu: graded_plate.WaveOnset(k, np.isfinite(mu), 0.0, mu, 0.5, 0.8, 0.0)  # noqa: E731
+    curve = [make(1, np.nan), make(2, -0.3), make(3, -0.2), make(4, -0.25), make(5, -0.1), make(6, -0.12)]
+    assert [o.k for o in graded_plate.local_minima(curve)] == [2, 4, 6]
+    x = np.array([0.005, 0.01, 0.02, 0.05, 0.1])
+    exact = graded_plate.power_law_fit(x, 0.8 * x**-0.5)
+    assert exact["exponent"] == pytest.approx(-0.5, abs=1e-12) and exact["standard_error"] < 1e-12
+    assert exact["prefactor"] == pytest.approx(0.8, rel=1e-12)
+    y = np.array([9.0, 8.0, 5.0, 3.0, 3.0])
+    fit = graded_plate.power_law_fit(x, y)
+    coef, cov = np.polyfit(np.log(x), np.log(y), 1, cov=True)  # the textbook covariance, scaled by s^2 / (n - 2)
+    assert fit["exponent"] == pytest.approx(coef[0], rel=1e-12)
+    assert fit["standard_error"] == pytest.approx(np.sqrt(cov[0, 0]), rel=1e-9)
+    with pytest.raises(ValueError, match="3 points"):
+        graded_plate.power_law_fit(x[:2], y[:2])
