@@ -367,37 +367,46 @@ def mode_deflection(hs: HarmonicStability, k: int, vector: np.ndarray, radii: np
 
 def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
                 step: float, ks: list[int], tolerance: float = 1e-6, radii: np.ndarray | None = None,
-                progress=None) -> list[WaveOnset]:
+                progress=None, onsets: bool = True) -> list[WaveOnset]:
     """The onset ``mu_c(k)`` of every wave number in ``ks`` on the flat path: the soft stretch is
     ramped to ``target`` in steps of at most ``step`` (no branch switching: the mid-plane symmetric
-    flat state is followed also where it is unstable), every state is scanned over ``ks``, and each
-    k whose lowest eigenvalue first turns negative between two states is bisected alone from the
+    flat state is followed also where it is unstable), every state is scanned over the ks still
+    stable, and each k whose lowest eigenvalue first turns negative between two states is bisected alone from the
     earlier one (``first_harmonic_instability`` with ``ks = [k]``) to ``tolerance`` in the stretch.
     The critical mode's deflection gives the penetration depths: the distance from the rim over
     which ``|w|`` stays above half, and above 5 %, of its value at the rim (``radii``: mid-plane
-    samples, default 1001 points on (0, 1]). The problem is left at the end of the path."""
+    samples, default 1001 points on (0, 1]). The problem is left at the end of the path.
+    ``onsets=False``: only the lowest eigenvalue of every k at the end (no scans on the way, no
+    bisection; every ``found`` is False)."""
     radii = np.linspace(0.0, 1.0, 1001)[1:] if radii is None else radii
     hs = HarmonicStability(prob)
-    states = [(stretch.Get(), prob.save_state(), hs.scan(ks, exclude_rigid=True))]
-    if states[0][2].unstable:
-        raise ValueError(f"the start at s = {stretch.Get():g} is already unstable for k in {states[0][2].unstable}")
+    scan = hs.scan(ks, exclude_rigid=True)
+    if scan.unstable:
+        raise ValueError(f"the start at s = {stretch.Get():g} is already unstable for k in {scan.unstable}")
+    states = [(stretch.Get(), prob.save_state())]
+    first_unstable: dict[int, int] = {}  # k -> index of the first state where it is unstable
+    pending = list(ks) if onsets else []  # a k once unstable is not scanned again: only its first crossing counts
 
     def on_step(value, _newton) -> bool:
-        states.append((value, prob.save_state(), hs.scan(ks, exclude_rigid=True)))
+        states.append((value, prob.save_state()))
+        if pending:
+            for k in hs.scan(pending, exclude_rigid=True).unstable:
+                first_unstable[k] = len(states) - 1
+                pending.remove(k)
         if progress is not None:
-            progress(f"s = {value:.4f} mu = {mismatch_strain(value, *nv)[0]:+.5f}  unstable k: {states[-1][2].unstable}")
+            progress(f"s = {value:.4f} mu = {mismatch_strain(value, *nv)[0]:+.5f}  {len(pending)} k still stable")
         return False
 
     ramp(prob, stretch, target, step=step, max_step=step, on_step=on_step)
     end = (stretch.Get(), prob.save_state())
-    lowest_end = states[-1][2].lowest
-    onsets = []
+    lowest_end = hs.scan(ks, exclude_rigid=True).lowest
+    result = []
     for k in ks:
-        first = next((i for i, (_, _, scan) in enumerate(states) if k in scan.unstable), None)
+        first = first_unstable.get(k)
         if first is None:
-            onsets.append(WaveOnset(k, False, math.nan, math.nan, math.nan, math.nan, lowest_end[k]))
+            result.append(WaveOnset(k, False, math.nan, math.nan, math.nan, math.nan, lowest_end[k]))
             continue
-        (s_lo, x_lo, _), (s_hi, _, _) = states[first - 1], states[first]
+        (s_lo, x_lo), (s_hi, _) = states[first - 1], states[first]
         prob.restore_state(x_lo)
         stretch.Set(s_lo)
         onset = first_harmonic_instability(prob, stretch, s_hi, ks=[k], step=s_hi - s_lo, tolerance=tolerance,
@@ -405,14 +414,14 @@ def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[f
         if not onset.found:
             raise RuntimeError(f"k = {k}: the instability seen at s = {s_hi} was not found again on bisection")
         w = mode_deflection(hs, k, onset.spectrum.modes[:, 0], radii)
-        onsets.append(WaveOnset(k, True, onset.parameter, mismatch_strain(onset.parameter, *nv)[0],
+        result.append(WaveOnset(k, True, onset.parameter, mismatch_strain(onset.parameter, *nv)[0],
                                 penetration_depth(w, radii, fraction=0.5), penetration_depth(w, radii, fraction=0.05),
                                 lowest_end[k]))
         if progress is not None:
-            progress(f"k = {k}: mu_c = {onsets[-1].mu:+.6f}, depth (half) {onsets[-1].depth_half:.3f}")
+            progress(f"k = {k}: mu_c = {result[-1].mu:+.6f}, depth (half) {result[-1].depth_half:.3f}")
     prob.restore_state(end[1])
     stretch.Set(end[0])
-    return onsets
+    return result
 
 
 def local_minima(onsets: list[WaveOnset]) -> list[WaveOnset]:
@@ -427,22 +436,25 @@ def local_minima(onsets: list[WaveOnset]) -> list[WaveOnset]:
 
 def onset_curve_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
                      maxh: float = 0.02, layers: int = 2, order: int = 3, mu0: float = -1.0, kmax: int = 40,
-                     quick: bool = False) -> dict:
+                     end_only: bool = False, quick: bool = False) -> dict:
     """``onset_curve`` for wave numbers 1 .. kmax of one graded disk, ``onset_curve.csv`` and a
-    summary: the first-unstable ``k_c``, ``mu_c``, and the edge-wave minimum (the lowest local
-    minimum of ``mu_c(k)`` other than ``k_c``'s, if any) with its penetration depths."""
+    summary: the first-unstable ``k_c``, ``mu_c``, the edge-wave minimum (the lowest local
+    minimum of ``mu_c(k)`` other than ``k_c``'s, if any) with its penetration depths, and the
+    wave number ``k*`` of the lowest eigenvalue of the flat disk at the end (``mu = 0``; flagged
+    when it is ``kmax``, i.e. possibly outside the scanned range). ``end_only``: ``k*`` alone."""
     if quick:
         maxh, order, kmax = max(maxh, 0.05), 2, min(kmax, 8)
     if not (isinstance(kmax, int) and kmax >= 2):
         raise ValueError(f"kmax must be an integer >= 2, got {kmax!r}")
     run_dir = RunDirectory(out, params=dict(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order,
-                                            mu0=mu0, kmax=kmax, chi=CHI, quick=quick, mode="onset curve"))
+                                            mu0=mu0, kmax=kmax, chi=CHI, end_only=end_only, quick=quick,
+                                            mode="onset curve"))
     start = time.perf_counter()
     prob, stretch = build(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=mu0)
     stretch_end = FloryRehnerGel(Nv=min(n0, nR), chi=CHI).lam_free(0.0)
     step = (stretch_end - stretch.Get()) / (25 if quick else 60)
     onsets = onset_curve(prob, stretch, nv=(n0, nR), target=stretch_end, step=step, ks=list(range(1, kmax + 1)),
-                         progress=Progress(f"onset curve p = {p:g}, t = {t:g}"))
+                         progress=Progress(f"onset curve p = {p:g}, t = {t:g}"), onsets=not end_only)
     with History(run_dir.file("onset_curve.csv")) as table:
         for o in onsets:
             table.append({"k": o.k, "found": o.found, "soft_stretch_c": o.soft_stretch, "mu_c": o.mu,
@@ -451,7 +463,9 @@ def onset_curve_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float =
     summary: dict = {"p": p, "t": t, "maxh": maxh, "layers": layers, "order": order, "kmax": kmax,
                      "ndof_section": prob.space.ndof, "found": bool(minima),
                      "local_minima": [{"k": o.k, "mu_c": o.mu} for o in minima],
-                     "k_most_unstable_end": min(onsets, key=lambda o: o.lowest_end).k}
+                     "k_most_unstable_end": min(onsets, key=lambda o: o.lowest_end).k,
+                     "lowest_end": min(o.lowest_end for o in onsets)}
+    summary["k_most_unstable_end_at_kmax"] = summary["k_most_unstable_end"] == kmax
     if minima:
         first, edge = minima[0], next((o for o in minima[1:] if o.k > minima[0].k), None)
         summary.update(k_critical=first.k, mu_critical=first.mu, depth_half_critical=first.depth_half,
@@ -469,7 +483,8 @@ def onset_curves(out: str, ps, ts, **options) -> list[dict]:
     ``onset_curves.csv`` and the figure ``onset_curves.png`` (``mu_c`` against k) in ``out``."""
     run_dir = RunDirectory(out, params={"ps": list(ps), "ts": list(ts), **options})
     keys = ("k_critical", "mu_critical", "depth_half_critical", "k_edge", "mu_edge", "mu_gap_edge",
-            "depth_half_edge", "depth_5pct_edge", "k_most_unstable_end", "ndof_section", "wall_s")
+            "depth_half_edge", "depth_5pct_edge", "k_most_unstable_end", "k_most_unstable_end_at_kmax",
+            "lowest_end", "ndof_section", "wall_s")
     rows, curves = [], {}
     with History(run_dir.file("onset_curves.csv")) as table:
         for p in ps:
@@ -479,12 +494,17 @@ def onset_curves(out: str, ps, ts, **options) -> list[dict]:
                 rows.append({"p": p, "t": t, **{k: summary.get(k, math.nan) for k in keys}})
                 table.append(rows[-1])
                 curves[(p, t)] = np.genfromtxt(folder / "onset_curve.csv", delimiter=",", names=True)
-    if len(ts) > 1:
-        rows_fit = [r for r in rows if np.isfinite(r["k_edge"])]
-        if len({r["t"] for r in rows_fit}) >= 3:
-            fit = power_law_fit([r["t"] for r in rows_fit], [r["k_edge"] for r in rows_fit])
-            run_dir.write_json("k_edge_fit.json", fit)
-            print(f"k_edge ~ (t/R)^b: b = {fit['exponent']:.3f} +- {fit['standard_error']:.3f} ({fit['points']} points)")
+    fits = {}
+    for p in ps:  # k(t/R) at fixed p, for the edge-wave minimum and for k* (unstable, inside the scanned range)
+        for key in ("k_edge", "k_most_unstable_end"):
+            usable = [r for r in rows if r["p"] == p and np.isfinite(r[key]) and not r["k_most_unstable_end_at_kmax"]
+                      and r["lowest_end"] < 0]
+            if len({r["t"] for r in usable}) >= 3:
+                fits[f"p{p:g}_{key}"] = fit = power_law_fit([r["t"] for r in usable], [r[key] for r in usable])
+                print(f"p = {p:g}: {key} ~ (t/R)^b, b = {fit['exponent']:.3f} +- {fit['standard_error']:.3f} "
+                      f"({fit['points']} points)")
+    if fits:
+        run_dir.write_json("k_fits.json", fits)
     plot_onset_curves(curves, run_dir.file("onset_curves.png"))
     for line in rows:
         print("  ".join(f"{k} {v:.5g}" if isinstance(v, float) else f"{k} {v}" for k, v in line.items()))
@@ -512,13 +532,20 @@ def plot_onset_curves(curves: dict, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
     for i, ((p, t), data) in enumerate(curves.items()):
-        ax.plot(data["k"], data["mu_c"], "o-", ms=3, color=f"C{i % 10}", label=f"p = {p:g}, t/R = {t:g}")
+        label = f"p = {p:g}, t/R = {t:g}"
+        ax.plot(data["k"], data["mu_c"], "o-", ms=3, color=f"C{i % 10}", label=label)
+        ax2.plot(data["k"], data["lowest_end"], "o-", ms=3, color=f"C{i % 10}", label=label)
     ax.set_xlabel("wave number k")
     ax.set_ylabel("onset mu_c(k) on the flat path")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
+    ax.set_yscale("symlog", linthresh=1e-3)
+    ax2.set_xlabel("wave number k")
+    ax2.set_ylabel("lowest eigenvalue of k, flat disk at mu = 0")
+    ax2.set_yscale("symlog", linthresh=1e-6)
+    for a in (ax, ax2):
+        a.legend(fontsize=7)
+        a.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -547,6 +574,8 @@ def main(argv=None) -> dict:
                         help="onset mu_c(k) of every k = 1 .. kmax on the flat path, for every p (--p or --sweep) "
                              "and t (--t or --t-sweep)")
     parser.add_argument("--t-sweep", type=float, nargs="+", help="with --onset-curve: these thicknesses instead of --t")
+    parser.add_argument("--end-only", action="store_true",
+                        help="with --onset-curve: only the lowest eigenvalue of every k at mu = 0 (no onsets)")
     args = parser.parse_args(argv)
     options = dict(n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, layers=args.layers, order=args.order,
                    mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection,
@@ -555,7 +584,7 @@ def main(argv=None) -> dict:
         options.pop("imperfection")
         ts = args.t_sweep or [options.pop("t")]
         options.pop("t", None)
-        return {"onset_curves": onset_curves(args.out, args.sweep or [args.p], ts, **options)}
+        return {"onset_curves": onset_curves(args.out, args.sweep or [args.p], ts, end_only=args.end_only, **options)}
     if args.sweep:
         return {"sweep": sweep(args.out, args.sweep, **options)}
     summary = run(args.out, p=args.p, **options)
