@@ -365,6 +365,16 @@ def mode_deflection(hs: HarmonicStability, k: int, vector: np.ndarray, radii: np
     return w / np.max(w)
 
 
+def lowest_eigenvalue(hs: HarmonicStability, k: int) -> float:
+    """The lowest eigenvalue of wave number ``k`` (rigid motions excluded). ``spectrum(count=1)``
+    returns the negative eigenvalue nearest zero when there are several (shift-invert about a
+    shift just below zero): ask again for all of them then."""
+    spectrum = hs.spectrum(k, count=1, exclude_rigid=True)
+    if spectrum.negative > 1:
+        spectrum = hs.spectrum(k, count=spectrum.negative + 1, exclude_rigid=True)
+    return float(np.min(spectrum.eigenvalues))
+
+
 def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
                 step: float, ks: list[int], tolerance: float = 1e-6, radii: np.ndarray | None = None,
                 progress=None, onsets: bool = True) -> list[WaveOnset]:
@@ -399,7 +409,7 @@ def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[f
 
     ramp(prob, stretch, target, step=step, max_step=step, on_step=on_step)
     end = (stretch.Get(), prob.save_state())
-    lowest_end = hs.scan(ks, exclude_rigid=True).lowest
+    lowest_end = {k: lowest_eigenvalue(hs, k) for k in ks}
     result = []
     for k in ks:
         first = first_unstable.get(k)

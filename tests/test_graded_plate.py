@@ -103,6 +103,29 @@ def test_onset_curve_minimum_is_the_first_instability_and_each_onset_is_brackete
     assert all(o.depth_5pct > o.depth_half for o in onsets[1:])
 
 
+def test_lowest_eigenvalue_is_the_lowest_when_a_wave_number_has_several_negative_ones():
+    # flat thin disk (t/R = 0.01) at mu = 0: k = 8 and 16 have two negative eigenvalues each;
+    # spectrum(count=1) gives the one nearest zero, lowest_eigenvalue the lowest (dense check)
+    import scipy.linalg
+
+    from ngsgel import FloryRehnerGel, ramp
+    from ngsgel.harmonic import HarmonicStability
+
+    prob, stretch = graded_plate.build(n0=1e-2, nR=1e-3, p=10.0, t=0.01, maxh=0.05, order=2, mu0=-0.1)
+    target = FloryRehnerGel(Nv=1e-3, chi=graded_plate.CHI).lam_free(0.0)
+    ramp(prob, stretch, target, step=(target - stretch.Get()) / 8)
+    hs = HarmonicStability(prob)
+    for k in (8, 16):
+        nearest = hs.spectrum(k, count=1)
+        assert nearest.negative >= 2
+        K, M, _ = hs.matrices(k)
+        dense = scipy.linalg.eigh(K.toarray(), M.toarray(), eigvals_only=True)
+        assert np.count_nonzero(dense < 0) == nearest.negative
+        lowest = graded_plate.lowest_eigenvalue(hs, k)
+        assert lowest == pytest.approx(dense[0], rel=1e-8)
+        assert lowest < nearest.eigenvalues[0]
+
+
 def test_local_minima_and_power_law_fit():
     make = lambda k, mu: graded_plate.WaveOnset(k, np.isfinite(mu), 0.0, mu, 0.5, 0.8, 0.0)  # noqa: E731
     curve = [make(1, np.nan), make(2, -0.3), make(3, -0.2), make(4, -0.25), make(5, -0.1), make(6, -0.12)]
