@@ -220,6 +220,10 @@ def test_bad_scene_input():
         gears.main(["--n-theta", "30", "--out", "/tmp/never"])
     with pytest.raises(ValueError, match="volume fraction|volume"):
         gears.main(["--volume", "1.5", "--out", "/tmp/never"])
+    with pytest.raises(ValueError, match="axial"):
+        gears.check_scene(gears.Scene(axial="loose"))
+    with pytest.raises(ValueError, match="axial"):
+        FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=ES, Efo=ES, axial="loose")
 
 
 # Converged onset of Efo/Es = 100 (Efi/Es = 12.5, Ri/tfi = 50, Ro/tfo = 100) from the convergence
