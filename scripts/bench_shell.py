@@ -270,19 +270,22 @@ GRADED_REFERENCE = {0.25: -0.1706, 0.75: -0.2507, 2.0: -0.29104928, 10.0: -0.223
 PIN_RADIUS = 0.25  # inside the hoop-compressed rim where the critical modes live (r/R > 0.68)
 
 
-def split_disk(*, maxh: float, curve_order: int) -> ngs.Mesh:
+def split_disk(*, maxh: float, curve_order: int, half: bool = False) -> ngs.Mesh:
     """Unit disk in z = 0 as four quadrant faces (region "gel", rim "rim"): the straight edges
-    along the x and y axes put mesh vertices exactly on the axes for the rigid-motion pins."""
+    along the x and y axes put mesh vertices exactly on the axes for the rigid-motion pins.
+    ``half``: only the quadrants with y >= 0, the straight edge on y = 0 named "cut"."""
     disk = occ.WorkPlane().Circle(0, 0, 1.0).Face()
     quadrants = [disk * occ.Box(occ.Pnt(0 if sx > 0 else -2, 0 if sy > 0 else -2, -1),
                                 occ.Pnt(2 if sx > 0 else 0, 2 if sy > 0 else 0, 1))
-                 for sx in (1, -1) for sy in (1, -1)]
+                 for sx in (1, -1) for sy in ((1,) if half else (1, -1))]
     shape = occ.Glue(quadrants)
     shape.faces.name = "gel"
     for edge in shape.edges:
         c = edge.center
         if abs(math.hypot(c.x, c.y) - 1.0) < 0.1:
             edge.name = "rim"
+        elif half and abs(c.y) < 1e-12:
+            edge.name = "cut"
     mesh = ngs.Mesh(occ.OCCGeometry(shape).GenerateMesh(maxh=maxh))
     mesh.Curve(curve_order)
     return mesh
@@ -296,18 +299,29 @@ def _axis_vertex(mesh: ngs.Mesh, axis: int, radius: float) -> tuple[float, float
     return tuple(points[best])
 
 
-def graded_plate_shell(p: float, *, maxh: float, order: int) -> tuple[GelShell, ngs.Mesh, list]:
-    """The graded disk as a ``GelShell`` on the full disk at ``mu0`` (not yet solved): graded
+def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T, realcompile: bool = False,
+                       half: bool = False) -> tuple[GelShell, ngs.Mesh, list]:
+    """The graded disk (thickness ``t``) as a ``GelShell`` on the full disk at ``mu0`` (not yet solved): graded
     ``Nv`` as a field, the stiff gel's free-swelling reference (as the axisymmetric section of
     ``graded_plate.build``). Rigid motions are removed by six statically determinate pins
     (centre: x, y, z; a vertex on the x axis at ``PIN_RADIUS``: y, z; one on the y axis: z): the
     flat state loads none of them, and the critical modes (outer third) hardly move there.
-    Returns the shell, the mesh and the two off-centre pin points."""
-    mesh = split_disk(maxh=maxh, curve_order=order)
+    ``half``: the half disk y >= 0 with mirror symmetry about y = 0 (only cos k theta modes of w:
+    the sin k theta partner of every wave number, which shares its eigenvalue on the full disk,
+    is excluded); three pins (centre: x, z; the x-axis vertex: z).
+    Returns the shell, the mesh and the off-centre pin points."""
+    mesh = split_disk(maxh=maxh, curve_order=order, half=half)
     stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=GEL.chi)
     gel = FloryRehnerGel(Nv=radial_grading(GRADED_N0, GRADED_NR, p, 1.0), chi=GEL.chi)
-    shell = GelShell(mesh, material=gel, lam0=stiff.lam_free(GRADED_MU0), thickness=GRADED_T, mu=GRADED_MU0,
-                     order=order)
+    shell = GelShell(mesh, material=gel, lam0=stiff.lam_free(GRADED_MU0), thickness=t, mu=GRADED_MU0,
+                     order=order, realcompile=realcompile)
+    if half:
+        shell.symmetry("cut", normal="y")
+        on_x = _axis_vertex(mesh, 0, PIN_RADIUS)
+        shell.prescribe_point((0.0, 0.0, 0.0), "x", 0.0)
+        shell.prescribe_point((0.0, 0.0, 0.0), "z", 0.0)
+        shell.prescribe_point(on_x, "z", 0.0)
+        return shell, mesh, [on_x]
     for component in ("x", "y", "z"):
         shell.prescribe_point((0.0, 0.0, 0.0), component, 0.0)
     on_x, on_y = _axis_vertex(mesh, 0, PIN_RADIUS), _axis_vertex(mesh, 1, PIN_RADIUS)
@@ -317,13 +331,24 @@ def graded_plate_shell(p: float, *, maxh: float, order: int) -> tuple[GelShell, 
     return shell, mesh, [on_x, on_y]
 
 
-def plate_mode_wave(mode_u, mesh: ngs.Mesh) -> dict:
+def disk_circle_values(field: ngs.CoefficientFunction, mesh: ngs.Mesh, *, radius: float, n: int,
+                       half: bool = False) -> np.ndarray:
+    """``field`` at ``theta_i = 2 pi i / n`` on a circle about the centre of a disk mid-surface;
+    ``half``: the mesh is the half y >= 0 of a mirror-symmetric disk, ``field(theta) = field(-theta)``
+    (a scalar even in y, e.g. the deflection)."""
+    if not half:
+        return sample_on_circle(field, mesh, center=(0.0, 0.0, 0.0), radius=radius, n=n).values
+    theta = 2.0 * np.pi * np.arange(n) / n
+    return np.array([field(mesh(radius * math.cos(a), abs(radius * math.sin(a)), 0.0, ngs.BND)) for a in theta])
+
+
+def plate_mode_wave(mode_u, mesh: ngs.Mesh, *, half: bool = False) -> dict:
     """Wave number of a plate mode's deflection on the circle (r/R = 0.3 ... 0.95) where it is
-    largest."""
+    largest (``half``: see ``disk_circle_values``)."""
     best = None
     for rho in np.linspace(0.3, 0.95, 14):
-        samples = sample_on_circle(mode_u[2], mesh, center=(0.0, 0.0, 0.0), radius=float(rho), n=64)
-        analysis = wave_number(samples.values, max_mode=12)
+        values = disk_circle_values(mode_u[2], mesh, radius=float(rho), n=64, half=half)
+        analysis = wave_number(values, max_mode=12)
         if best is None or analysis.amplitude > best[1].amplitude:
             best = (float(rho), analysis)
     return {"k": best[1].k, "purity": best[1].purity, "k_second": best[1].second, "mode_radius": best[0]}

@@ -1,0 +1,188 @@
+"""Post-buckled path of the softer-edge graded disk (thesis ch. 5, MODEL.md 5 C) as a shell.
+
+The full disk ``GelShell`` of ``bench_shell.graded_plate_shell`` (graded ``Nv`` as a field, six
+statically determinate pins) is swollen from ``mu0 = -1`` towards ``mu = 0`` by arclength
+continuation with the exact negative count of the shell's tangent at every state. At the first
+bifurcation (the flat disk losing stability to the k = 2 saddle, docs/graded.md) the driver
+switches onto the branch along the critical mode (amplitude ``0.1 t``) and follows it; later
+changes of the negative count (secondary bifurcations) are located and switched the same way.
+Along the path the deflection ``w`` (z displacement; rigid tilt is removed by the pins) is
+sampled on the circle ``r = 0.97 R`` and its Fourier content recorded: the dominant wave number,
+its amplitude, the runner-up, the purity and the amplitudes of ``k = 1 .. 12``. Each event's
+critical mode gets its wave number (``bench_shell.plate_mode_wave``).
+
+Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summary.json``,
+``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
+end).
+
+    python scripts/graded_plate_shell.py --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+
+import numpy as np
+import ngsolve as ngs
+
+from bench_shell import disk_circle_values, graded_plate_shell, plate_mode_wave
+from ngsgel import NewtonError, follow_path, ramp
+from ngsgel.continuation import ContinuationError, StabilityOptions
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.patterns import wave_number
+
+RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
+RIM_SAMPLES = 128
+RIM_MODES = 12
+
+
+class RimWaves:
+    """Fourier content of the shell's deflection on the circle ``radius`` at the current state
+    (computed once per state)."""
+
+    def __init__(self, shell, mesh: ngs.Mesh, *, radius: float = RIM_RADIUS, n: int = RIM_SAMPLES,
+                 max_mode: int = RIM_MODES, half: bool = False):
+        self.shell, self.mesh, self.half = shell, mesh, half
+        self.radius, self.n, self.max_mode = radius, n, max_mode
+        self._key: bytes | None = None
+        self._values: dict[str, float] = {}
+
+    def values(self) -> dict[str, float]:
+        key = hashlib.sha1(self.shell.save_state().tobytes()).digest()
+        if key != self._key:
+            w = disk_circle_values(self.shell.displacement[2], self.mesh, radius=self.radius, n=self.n,
+                                   half=self.half)
+            values = {"rim_mean_w": float(np.mean(w)), "rim_max_abs_w": float(np.max(np.abs(w)))}
+            if np.ptp(w) > 0:
+                analysis = wave_number(w, max_mode=self.max_mode)
+                values.update(rim_k=analysis.k, rim_amplitude=analysis.amplitude, rim_purity=analysis.purity,
+                              rim_k_second=analysis.second,
+                              **{f"rim_a{m}": float(analysis.spectrum[m]) for m in range(1, self.max_mode + 1)})
+            else:  # the flat state: no wave
+                values.update(rim_k=0, rim_amplitude=0.0, rim_purity=0.0, rim_k_second=0,
+                              **{f"rim_a{m}": 0.0 for m in range(1, self.max_mode + 1)})
+            self._key, self._values = key, values
+        return self._values
+
+    def qoi(self) -> dict:
+        names = list(self._names())
+        return {name: (lambda name=name: self.values()[name]) for name in names}
+
+    def _names(self):
+        yield from ("rim_k", "rim_amplitude", "rim_purity", "rim_k_second", "rim_mean_w", "rim_max_abs_w")
+        yield from (f"rim_a{m}" for m in range(1, self.max_mode + 1))
+
+
+def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
+        max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = None,
+        maxit: int | None = None, half: bool = False, quick: bool = False) -> dict:
+    """``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
+    below the onset; the driver's first state then shows no negative eigenvalue, which is checked).
+    ``maxit``: Newton iterations per solve (the driver's default when None). A Newton failure of
+    the driver (e.g. in the branch switch) writes its residual history to ``newton_failure.json``
+    before it propagates. ``half``: the half disk with mirror symmetry about y = 0
+    (``bench_shell.graded_plate_shell``): the k = 2 eigenvalue is simple there."""
+    if quick:
+        maxh, max_steps, realcompile = max(maxh, 0.3), min(max_steps, 12), False
+    params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
+                  realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half, quick=quick,
+                  rim_radius=RIM_RADIUS)
+    run_dir = RunDirectory(out, params=params)
+    progress = Progress("graded_plate_shell")
+    start = time.perf_counter()
+    shell, mesh, pins = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=half)
+    rim = RimWaves(shell, mesh, half=half)
+    if mu_start is not None:
+        ramp(shell, shell.mu, mu_start, step=0.25)
+    stability = StabilityOptions(eigenvalues=eigenvalues, switch=True, amplitude=0.1, length=t, tol=1e-4)
+    error = None
+    with History(run_dir.file("path.csv")) as history:
+        try:
+            path = follow_path(shell, shell.mu, method="arclength", step=step, max_step=step, target=0.0,
+                               stability=stability, qoi=rim.qoi(), history=history, max_steps=max_steps,
+                               vtk=VTKSeries(mesh, shell.fields(), run_dir.file("shell")), progress=progress,
+                               newton_options=None if maxit is None else {"maxit": maxit})
+        except ContinuationError as exc:  # the path so far is kept and reported
+            path, error = exc.result, str(exc)
+        except NewtonError as exc:  # recorded for the report, then raised
+            run_dir.write_json("newton_failure.json", {"message": str(exc), "residuals": exc.result.residuals,
+                                                       "iterations": exc.result.iterations,
+                                                       "line_search_cuts": exc.result.line_search_cuts,
+                                                       "wall_s": time.perf_counter() - start})
+            raise
+    if path.points[0].negative:
+        raise RuntimeError(f"the start at mu = {path.points[0].parameter} is already unstable "
+                           f"({path.points[0].negative} negative eigenvalues): lower mu_start")
+    events = []
+    for e in path.events:
+        row = {"kind": e.kind, "step": e.step, "mu": e.parameter, "mu_error": e.parameter_error,
+               "negative_before": e.negative_before, "negative_after": e.negative_after, "eigenvalue": e.eigenvalue}
+        if e.mode is not None:
+            row.update({f"mode_{k}": v for k, v in plate_mode_wave(e.mode.components[0], mesh, half=half).items()})
+        events.append(row)
+    run_dir.write_json("events.json", events)
+    negatives = [pt.negative for pt in path.points]
+    summary = {"ndof": shell.space.ndof, "steps": len(path.points), "stop_reason": path.stop_reason,
+               "error": error, "mu_end": path.points[-1].parameter, "negative_end": negatives[-1],
+               "max_negative": max(n for n in negatives if n is not None), "events": events,
+               "rim_end": rim.values(), "pin_reactions": [shell.reaction(pt, "z") for pt in pins],
+               "wall_s": time.perf_counter() - start}
+    run_dir.write_json("summary.json", summary)
+    plot_shape(shell, mesh, run_dir.file("shape_end.png"), title=f"p = {p:g}, t/R = {t:g}, mu = {summary['mu_end']:.4g}",
+               half=half)
+    return summary
+
+
+def plot_shape(shell, mesh: ngs.Mesh, path, *, title: str, half: bool = False) -> None:
+    """Deflection map on a polar grid (reference positions) and the deflection on the rim circle
+    (``half``: mirrored from the half disk)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    radii = np.linspace(0.0, RIM_RADIUS, 40)
+    theta = 2 * np.pi * np.arange(181) / 180
+    w = np.array([disk_circle_values(shell.displacement[2], mesh, radius=max(float(r), 1e-9), n=180, half=half)
+                  for r in radii])
+    w = np.concatenate([w, w[:, :1]], axis=1)  # closed in theta
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    R, T = np.meshgrid(radii, theta, indexing="ij")
+    image = ax1.contourf(R * np.cos(T), R * np.sin(T), w, 30, cmap="RdBu_r")
+    fig.colorbar(image, ax=ax1, label="w (z displacement)")
+    ax1.set_aspect("equal")
+    ax1.set_title(title, fontsize=9)
+    ax2.plot(np.degrees(theta), w[-1])
+    ax2.set_xlabel("theta [deg]")
+    ax2.set_ylabel(f"w at r = {RIM_RADIUS} R (reference)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    parser = scene_parser(__doc__, out="results/graded_plate_shell", quick="h = 0.3, 12 steps, no C++ compile")
+    parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
+    parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
+    parser.add_argument("--maxh", type=float, default=0.2, help="shell mesh size")
+    parser.add_argument("--order", type=int, default=3)
+    parser.add_argument("--step", type=float, default=0.05, help="arclength step (and its maximum)")
+    parser.add_argument("--max-steps", type=int, default=200)
+    parser.add_argument("--no-realcompile", action="store_true", help="do not compile the forms to C++")
+    parser.add_argument("--mu-start", type=float, help="ramp the flat disk to this mu first (below the onset)")
+    parser.add_argument("--maxit", type=int, help="Newton iterations per solve (default: the driver's)")
+    parser.add_argument("--half", action="store_true", help="half disk, mirror symmetry about y = 0")
+    args = parser.parse_args(argv)
+    summary = run(args.out, p=args.p, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
+                  max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
+                  maxit=args.maxit, half=args.half, quick=quick_run(args))
+    print(json.dumps({k: v for k, v in summary.items() if k != "events"}, default=str, indent=1))
+    for e in summary["events"]:
+        print(e)
+    return summary
+
+
+if __name__ == "__main__":
+    main()
