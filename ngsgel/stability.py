@@ -269,9 +269,11 @@ def random_field(problem, *, correlation_length: float, seed: int = 0, terms: in
             total = total + rng.normal() * ngs.cos(phase)
         components.append(total)
     gf = ngs.GridFunction(problem.space, name="random_field")
-    gf.Set(ngs.CF(tuple(components)) if len(components) > 1 else components[0])
+    gf.vec[:] = 0.0  # a global axial unknown (generalized plane strain) stays unperturbed
+    u = problem.parts(gf)[0]
+    u.Set(ngs.CF(tuple(components)) if len(components) > 1 else components[0])
     gf.vec.FV().NumPy()[~problem.free_mask] = 0.0
-    rms = np.sqrt(problem.integrate(ngs.InnerProduct(gf, gf)) / _volume(problem))
+    rms = np.sqrt(problem.integrate(ngs.InnerProduct(u, u)) / _volume(problem))
     gf.vec.data *= 1.0 / rms
     return gf
 
@@ -289,5 +291,5 @@ def seed_imperfection(problem, shapes: Sequence[ngs.GridFunction], amplitudes: S
     total.vec[:] = 0.0
     for shape, a in zip(shapes, amplitudes):
         total.vec.data += float(a) * shape.vec
-    problem.mesh.SetDeformation(total)
+    problem.mesh.SetDeformation(problem.parts(total)[0])
     return total

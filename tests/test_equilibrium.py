@@ -11,6 +11,7 @@ from ngsolve.meshes import Make1DMesh, MakeStructured2DMesh, MakeStructured3DMes
 from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, GeneralizedPlaneStrain, NeoHookeanFilm,
                     NewtonError, PlaneStrain, Solid3D, SphericalSymmetric, ramp)
 from ngsgel.kinematics import PolarGeneralizedPlaneStrain
+from ngsgel.stability import random_field, seed_imperfection
 
 
 def unit_square():
@@ -413,3 +414,26 @@ def test_generalized_plane_strain_bilayer_has_zero_net_axial_force():
     assert abs(gel_force + film_force) < 1e-10 * gel_force
     assert 1.0 > gps.axial_stretch() > gel.lam_free(-5e-4) / lam0
     assert energies["generalized_plane"] < energies["plane"]
+
+
+def test_imperfection_tools_leave_the_axial_unknown_alone():
+    """``random_field`` perturbs only the displacement (unit RMS, zero on constrained dofs) and
+    ``seed_imperfection`` moves the mesh by it; the global axial strain is not a displacement."""
+    gel = FloryRehnerGel(Nv=1e-3, chi=0.5)
+    mesh, prob = _gps_problem("plane", gel, gel.lam_free(0.0), 0.0)
+    prob.solve()
+    field = random_field(prob, correlation_length=0.5, seed=3)
+    u, axial = prob.parts(field)
+    assert field.vec.FV().NumPy()[prob.axial_dof] == 0.0
+    assert np.all(field.vec.FV().NumPy()[~prob.free_mask] == 0.0)
+    assert math.sqrt(prob.integrate(ngs.InnerProduct(u, u)) / prob.integrate(ngs.CF(1.0))) == pytest.approx(1.0, rel=1e-10)
+    area = ngs.Integrate(ngs.CF(1.0), mesh, order=8)
+    a = 1e-3
+    grad = ngs.Grad(u)
+    # in 2D the moved area is exactly area + a div u + a^2 det grad u, integrated
+    expected = area + ngs.Integrate(a * ngs.Trace(grad) + a * a * ngs.Det(grad), mesh, order=8)
+    seed_imperfection(prob, [field], [a])
+    moved = ngs.Integrate(ngs.CF(1.0), mesh, order=8)
+    mesh.UnsetDeformation()
+    assert moved == pytest.approx(expected, rel=1e-12)
+    assert abs(moved - area) > 1e-6  # the mesh did move
