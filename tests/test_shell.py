@@ -12,8 +12,9 @@ import pytest
 from netgen import occ
 
 import bench_shell  # scripts/ (tests/conftest.py): the benchmark's cases are the reference cases
-from geometries import cap_midsurface, plate_midsurface
-from ngsgel import FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp, spectrum
+from geometries import cap_midsurface, cap_section, plate_midsurface
+from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp,
+                    spectrum)
 from ngsgel.stability import conjugate_force, mode_function
 from ngsgel.shell import GelShell
 
@@ -401,3 +402,53 @@ def test_apex_patch_load_stiffness_matches_the_axisymmetric_solid():
     solid, _ = bench_shell.cap_section_pressure_stiffness(maxh=0.02, order=3)
     shell, _ = bench_shell.cap_shell_pressure_stiffness(maxh=0.2, apex_maxh=0.025, order=3)
     assert shell == pytest.approx(solid, rel=0.02)
+
+
+# ----------------------------------------------------------------------------- snap-through
+def _pressure_snap(problem, load) -> list:
+    """Limit points of the dead-pressure path of a clamped cap, followed by arclength until the
+    cap has snapped and is loaded again to three times the classical pressure."""
+    path = follow_path(problem, load, method="arclength", step=0.1, target=3.0, max_steps=60,
+                       stability=StabilityOptions(eigenvalues=2, tol=3e-3))
+    assert path.stop_reason == "target"
+    return path
+
+
+@pytest.mark.slow  # the coarse shell's path takes ~3 CPU minutes (three located events)
+def test_clamped_cap_snaps_through_under_pressure_like_the_axisymmetric_solid():
+    # Shallow clamped cap, lambda = 2 (3 (1 - nu^2))^(1/4) sqrt(H/t) = 4 for the incompressible
+    # gel: below ~5.5 it snaps axisymmetrically (no bifurcation), at a pressure below the
+    # classical 2E/sqrt(3(1-nu^2)) (t/r)^2. Reference: the r-z section of the same gel cap, the
+    # same dead vertical load per mid-surface area (outer-face traction scaled by (r/(r+t/2))^2).
+    # Measured: shell (half cap, h = 0.4, 114 triangles) limit 0.4540 and return 0.3095, solid
+    # 0.4614 and 0.3090 (h = 0.05 and 0.025 agree to 1e-4).
+    H = 0.1
+    t = H / 2.667
+    r = (1 + H * H) / (2 * H)
+    lam0 = GEL.lam_free(0.0)
+    classical = 2 * GEL.youngs_modulus(lam0) / math.sqrt(3 * 0.75) * (t / r) ** 2
+
+    section = cap_section(H=H, t=t, maxh=0.05, layers=2, curve_order=3)
+    solid = EquilibriumProblem(section.mesh, kinematics=Axisymmetric(), materials=GEL, lam0=lam0, mu=0.0, order=3)
+    solid.fix("base")
+    solid.fix("axis", "r")
+    solid_load = ngs.Parameter(0.0)
+    solid.add_traction("outer", ngs.CF((0.0, -classical * (r / (r + t / 2)) ** 2 * solid_load)))
+    reference = _pressure_snap(solid, solid_load)
+
+    mid = cap_midsurface(H=H, maxh=0.4, curve_order=3, half=True)
+    shell = GelShell(mid.mesh, material=GEL, lam0=lam0, thickness=t, mu=0.0, order=3)
+    shell.clamp("base")
+    shell.symmetry("sym", normal="y")
+    shell_load = ngs.Parameter(0.0)
+    shell.add_surface_load(".*", (0.0, 0.0, -classical * shell_load))
+    path = _pressure_snap(shell, shell_load)
+
+    for result in (reference, path):
+        kinds = [(e.kind, e.negative_before, e.negative_after) for e in result.events]
+        assert kinds == [("limit point", 0, 1), ("limit point", 1, 0)]  # snap, no bifurcation
+    for ours, theirs in zip(path.events, reference.events):
+        assert ours.parameter == pytest.approx(theirs.parameter, rel=0.03)
+    assert reference.events[0].parameter < 1.0  # below the classical buckling pressure
+    height = shell.integrate(ngs.z + shell.displacement[2]) / shell.integrate(ngs.CF(1.0))
+    assert height < 0  # the mid-surface's centroid below the clamped base: the cap turned inside out
