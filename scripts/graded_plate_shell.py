@@ -29,7 +29,7 @@ import ngsolve as ngs
 
 from bench_shell import disk_circle_values, graded_plate_shell, plate_mode_wave
 from ngsgel import NewtonError, follow_path, ramp
-from ngsgel.continuation import ContinuationError, StabilityOptions
+from ngsgel.continuation import ContinuationError, Stabilization, StabilityOptions
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import wave_number
 
@@ -77,17 +77,25 @@ class RimWaves:
 
 def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
         max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = None,
-        maxit: int | None = None, half: bool = False, quick: bool = False) -> dict:
+        maxit: int | None = None, half: bool = False, switch_all: bool = True, stabilized_step: float | None = None,
+        quick: bool = False) -> dict:
     """``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
     below the onset; the driver's first state then shows no negative eigenvalue, which is checked).
     ``maxit``: Newton iterations per solve (the driver's default when None). A Newton failure of
     the driver (e.g. in the branch switch) writes its residual history to ``newton_failure.json``
     before it propagates. ``half``: the half disk with mirror symmetry about y = 0
-    (``bench_shell.graded_plate_shell``): the k = 2 eigenvalue is simple there."""
+    (``bench_shell.graded_plate_shell``): the k = 2 eigenvalue is simple there. ``switch_all``
+    False: two legs, the first switches onto the buckled branch and stops once the rim wave
+    exceeds 0.1 t, the second follows that branch to ``mu = 0`` locating (not switching at) every
+    later change of the negative count, with its critical mode's wave number (column ``leg``).
+    ``stabilized_step`` (with ``switch_all`` False): the second leg is a natural-parameter run in
+    steps of ``mu`` of that size with the driver's pseudo-viscous ``Stabilization`` (crosses a
+    snap; stability changes are recorded, not located)."""
     if quick:
         maxh, max_steps, realcompile = max(maxh, 0.3), min(max_steps, 12), False
     params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
-                  realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half, quick=quick,
+                  realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
+                  switch_all=switch_all, stabilized_step=stabilized_step, quick=quick,
                   rim_radius=RIM_RADIUS)
     run_dir = RunDirectory(out, params=params)
     progress = Progress("graded_plate_shell")
@@ -96,36 +104,51 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     rim = RimWaves(shell, mesh, half=half)
     if mu_start is not None:
         ramp(shell, shell.mu, mu_start, step=0.25)
-    stability = StabilityOptions(eigenvalues=eigenvalues, switch=True, amplitude=0.1, length=t, tol=1e-4)
-    error = None
+    legs = [True] if switch_all else [True, False]  # switch onto the buckled branch, then (maybe) only watch
+    error, points, all_events = None, [], []
+    leg_number = [0]
+    qoi = {"leg": lambda: leg_number[0], **rim.qoi()}
+    vtk = VTKSeries(mesh, shell.fields(), run_dir.file("shell"))
     with History(run_dir.file("path.csv")) as history:
-        try:
-            path = follow_path(shell, shell.mu, method="arclength", step=step, max_step=step, target=0.0,
-                               stability=stability, qoi=rim.qoi(), history=history, max_steps=max_steps,
-                               vtk=VTKSeries(mesh, shell.fields(), run_dir.file("shell")), progress=progress,
-                               newton_options=None if maxit is None else {"maxit": maxit})
-        except ContinuationError as exc:  # the path so far is kept and reported
-            path, error = exc.result, str(exc)
-        except NewtonError as exc:  # recorded for the report, then raised
-            run_dir.write_json("newton_failure.json", {"message": str(exc), "residuals": exc.result.residuals,
-                                                       "iterations": exc.result.iterations,
-                                                       "line_search_cuts": exc.result.line_search_cuts,
-                                                       "wall_s": time.perf_counter() - start})
-            raise
-    if path.points[0].negative:
-        raise RuntimeError(f"the start at mu = {path.points[0].parameter} is already unstable "
-                           f"({path.points[0].negative} negative eigenvalues): lower mu_start")
+        for leg, switch in enumerate(legs):
+            leg_number[0] = leg
+            stability = StabilityOptions(eigenvalues=eigenvalues, switch=switch, amplitude=0.1, length=t, tol=1e-4)
+            # the first leg of a two-leg run ends once the disk has left the flat state (rim wave > 0.1 t)
+            stop = None if (switch_all or not switch) else (lambda pt: pt.qoi["rim_amplitude"] > 0.1 * t)
+            try:
+                stabilized = leg == 1 and stabilized_step is not None
+                path = follow_path(shell, shell.mu, method="natural" if stabilized else "arclength",
+                                   step=stabilized_step if stabilized else step,
+                                   max_step=stabilized_step if stabilized else step, target=0.0,
+                                   stabilization=Stabilization() if stabilized else None,
+                                   stability=stability, qoi=qoi, history=history, max_steps=max_steps, stop=stop,
+                                   vtk=vtk, progress=progress, newton_options=None if maxit is None else {"maxit": maxit})
+            except ContinuationError as exc:  # the path so far is kept and reported
+                path, error = exc.result, str(exc)
+            except NewtonError as exc:  # recorded for the report, then raised
+                run_dir.write_json("newton_failure.json", {"message": str(exc), "residuals": exc.result.residuals,
+                                                           "iterations": exc.result.iterations,
+                                                           "line_search_cuts": exc.result.line_search_cuts,
+                                                           "leg": leg, "wall_s": time.perf_counter() - start})
+                raise
+            points += path.points
+            all_events += [(leg, e) for e in path.events]
+            if error is not None or path.stop_reason != "criterion":
+                break
+    if points[0].negative:
+        raise RuntimeError(f"the start at mu = {points[0].parameter} is already unstable "
+                           f"({points[0].negative} negative eigenvalues): lower mu_start")
     events = []
-    for e in path.events:
-        row = {"kind": e.kind, "step": e.step, "mu": e.parameter, "mu_error": e.parameter_error,
+    for leg, e in all_events:
+        row = {"leg": leg, "kind": e.kind, "step": e.step, "mu": e.parameter, "mu_error": e.parameter_error,
                "negative_before": e.negative_before, "negative_after": e.negative_after, "eigenvalue": e.eigenvalue}
         if e.mode is not None:
             row.update({f"mode_{k}": v for k, v in plate_mode_wave(e.mode.components[0], mesh, half=half).items()})
         events.append(row)
     run_dir.write_json("events.json", events)
-    negatives = [pt.negative for pt in path.points]
-    summary = {"ndof": shell.space.ndof, "steps": len(path.points), "stop_reason": path.stop_reason,
-               "error": error, "mu_end": path.points[-1].parameter, "negative_end": negatives[-1],
+    negatives = [pt.negative for pt in points]
+    summary = {"ndof": shell.space.ndof, "steps": len(points), "stop_reason": path.stop_reason,
+               "error": error, "mu_end": points[-1].parameter, "negative_end": negatives[-1],
                "max_negative": max(n for n in negatives if n is not None), "events": events,
                "rim_end": rim.values(), "pin_reactions": [shell.reaction(pt, "z") for pt in pins],
                "wall_s": time.perf_counter() - start}
@@ -174,10 +197,17 @@ def main(argv=None) -> dict:
     parser.add_argument("--mu-start", type=float, help="ramp the flat disk to this mu first (below the onset)")
     parser.add_argument("--maxit", type=int, help="Newton iterations per solve (default: the driver's)")
     parser.add_argument("--half", action="store_true", help="half disk, mirror symmetry about y = 0")
+    parser.add_argument("--watch-after-first-switch", action="store_true",
+                        help="switch onto the first buckled branch only, then follow it locating later bifurcations")
+    parser.add_argument("--stabilized-step", type=float,
+                        help="with --watch-after-first-switch: follow the buckled branch by natural steps of mu "
+                             "of this size with pseudo-viscous stabilisation (across snaps)")
     args = parser.parse_args(argv)
     summary = run(args.out, p=args.p, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
                   max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
-                  maxit=args.maxit, half=args.half, quick=quick_run(args))
+                  maxit=args.maxit, half=args.half,
+                  switch_all=not args.watch_after_first_switch, stabilized_step=args.stabilized_step,
+                  quick=quick_run(args))
     print(json.dumps({k: v for k, v in summary.items() if k != "events"}, default=str, indent=1))
     for e in summary["events"]:
         print(e)

@@ -141,3 +141,22 @@ def test_local_minima_and_power_law_fit():
     assert fit["standard_error"] == pytest.approx(np.sqrt(cov[0, 0]), rel=1e-9)
     with pytest.raises(ValueError, match="3 points"):
         graded_plate.power_law_fit(x[:2], y[:2])
+
+
+def test_disk_circle_values_mirror_the_half_disk():
+    # a field even in y sampled on the half disk (mirrored) and on the full disk: both equal the
+    # closed form r^2 cos 2 theta + r^3 cos 3 theta on the circle, and the wave count finds k = 2
+    import ngsolve as ngs
+
+    import bench_shell
+    from ngsgel.patterns import wave_number
+
+    field = ngs.x * ngs.x - ngs.y * ngs.y + ngs.x**3 - 3 * ngs.x * ngs.y * ngs.y
+    theta = 2 * np.pi * np.arange(48) / 48
+    exact = 0.8**2 * np.cos(2 * theta) + 0.8**3 * np.cos(3 * theta)
+    for half in (True, False):
+        mesh = bench_shell.split_disk(maxh=0.3, curve_order=2, half=half)
+        assert ("cut" in mesh.GetBBoundaries()) == half
+        values = bench_shell.disk_circle_values(field, mesh, radius=0.8, n=48, half=half)
+        assert np.allclose(values, exact, atol=1e-12)
+        assert wave_number(values).k == 2
