@@ -122,7 +122,8 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                                    max_step=stabilized_step if stabilized else step, target=0.0,
                                    stabilization=Stabilization() if stabilized else None,
                                    stability=stability, qoi=qoi, history=history, max_steps=max_steps, stop=stop,
-                                   vtk=vtk, progress=progress, newton_options=None if maxit is None else {"maxit": maxit})
+                                   vtk=vtk, progress=progress,
+                                   newton_options=None if maxit is None else {"maxit": maxit})
             except ContinuationError as exc:  # the path so far is kept and reported
                 path, error = exc.result, str(exc)
             except NewtonError as exc:  # recorded for the report, then raised
@@ -153,8 +154,8 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                "rim_end": rim.values(), "pin_reactions": [shell.reaction(pt, "z") for pt in pins],
                "wall_s": time.perf_counter() - start}
     run_dir.write_json("summary.json", summary)
-    plot_shape(shell, mesh, run_dir.file("shape_end.png"), title=f"p = {p:g}, t/R = {t:g}, mu = {summary['mu_end']:.4g}",
-               half=half)
+    plot_shape(shell, mesh, run_dir.file("shape_end.png"),
+               title=f"p = {p:g}, t/R = {t:g}, mu = {summary['mu_end']:.4g}", half=half)
     return summary
 
 
