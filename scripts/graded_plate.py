@@ -23,12 +23,18 @@ mid-plane profile at the end and its shape exponent ``q`` (rise ~ r^q: 1 a cone,
 strain (the free-swelling mismatch ``lam_free(mu_c; soft) / lam_free(mu_c; stiff) - 1`` between
 the softest and the stiffest gel), the hoop-stress profile at onset and where it turns
 compressive, and the lowest eigenvalue by k along the path. ``--sweep P [P ...]`` runs several
-exponents and draws their end profiles together. What this script does not do: follow the
-non-axisymmetric post-buckled path (the thesis's final wave numbers are those of the fully
-swollen, post-buckled plate: a 3D thin solid or shell run from the critical mode).
+exponents and draws their end profiles together. ``--onset-curve`` instead follows the flat path
+to ``mu = 0`` and bisects the onset ``mu_c(k)`` of every wave number k = 1 .. kmax separately
+(with the penetration depths of each critical mode, the local minima of ``mu_c(k)`` and ``k*``,
+the k of the lowest eigenvalue at ``mu = 0``), for every p (``--p``/``--sweep``) and t/R
+(``--t``/``--t-sweep``), with power-law fits of k against t/R; ``--end-only`` computes ``k*``
+alone. What this script does not do: follow the non-axisymmetric post-buckled path
+(``scripts/graded_plate_shell.py``).
 
     python scripts/graded_plate.py --out results/graded_plate [--p 10 --n0 1e-2 --nR 1e-3 --t 0.01] [--quick]
     python scripts/graded_plate.py --out results/softer_centre --n0 1e-3 --nR 1e-2 --sweep 0.25 0.75 2 10
+    python scripts/graded_plate.py --out results/onset_curves --onset-curve --sweep 0.25 0.75 2 10 --kmax 50
+    python scripts/graded_plate.py --out results/k_star --onset-curve --end-only --t-sweep 0.01 0.02 0.05 0.1 --kmax 100
 """
 
 from __future__ import annotations
