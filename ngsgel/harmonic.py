@@ -165,7 +165,9 @@ class HarmonicStability:
 
     def spectrum(self, k: int, *, count: int = 3, exclude_rigid: bool = False) -> Spectrum:
         """Lowest eigenvalues, modes (free-dof vectors of the unknowns) and the exact negative
-        count for wave number ``k``; comparable across ``k`` and with the 3D tangent.
+        count for wave number ``k``; comparable across ``k`` and with the 3D tangent. With more
+        than ``count`` negative eigenvalues the ones nearest zero are returned
+        (``ngsgel.stability.spectrum``).
 
         ``exclude_rigid``: drop the zero eigenvalues of rigid motions the constraints leave free
         (``k = 0``: rotation about and translation along the axis; ``k = 1``: translation across

@@ -95,9 +95,11 @@ def _volume(problem) -> float:
 
 def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spmatrix | None = None) -> Spectrum:
     """Lowest ``count`` eigenvalues of the tangent at the current state (``K``, ``M``: free-dof
-    matrices if already at hand). Shift-invert about a shift below the lowest eigenvalue: the
-    exact negative count says how many must lie below zero, and the shift moves down until the
-    computed set contains them."""
+    matrices if already at hand) when it has at most ``count`` negative ones; with more, the
+    ``count`` negative eigenvalues nearest zero (those that cross next), not the lowest.
+    Shift-invert about a shift a hair below zero: the exact negative count says how many must lie
+    below zero, and the shift moves down until the computed set holds ``min(negative, count)``
+    of them."""
     free = problem.free_mask
     if K is None:
         K = free_matrix(problem.tangent(problem.state), free)
