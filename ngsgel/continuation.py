@@ -616,6 +616,13 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
                       easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
 
 
+def _corrector(problem, parameter: ngs.Parameter, newton_options: dict) -> BorderedCorrector:
+    """The bordered corrector with the run's Newton tolerances (its absolute floor above all: a
+    branch-switch guess next to the critical state starts with a residual near round-off)."""
+    return BorderedCorrector(problem, parameter, **{k: v for k, v in newton_options.items()
+                                                    if k in ("rtol", "atol", "xtol", "maxit")})
+
+
 def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, max_step, stabilization, grow, easy,
              newton_options) -> PathResult:
     problem, parameter = driver.problem, driver.parameter
@@ -631,7 +638,7 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
         return solve_at
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
-        corrector = BorderedCorrector(problem, parameter)
+        corrector = _corrector(problem, parameter, newton_options)
         free = problem.free_mask
         return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
             (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s))
@@ -676,8 +683,7 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
                max_step, direction, scale, grow, easy, hard, newton_options) -> PathResult:
     problem, parameter = driver.problem, driver.parameter
     free = problem.free_mask
-    corrector = BorderedCorrector(problem, parameter, **{k: v for k, v in newton_options.items()
-                                                  if k in ("rtol", "atol", "xtol", "maxit")})
+    corrector = _corrector(problem, parameter, newton_options)
 
     def path_tangent() -> np.ndarray:
         """``dx_free/dlambda`` at the current state."""

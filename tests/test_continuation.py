@@ -224,3 +224,16 @@ def test_buckling_demo_quick(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "history.csv")))
     assert len(rows) == len(result.points)
     assert sum(1 for r in rows if "limit point" in r["events"]) == 2
+
+
+def test_natural_run_switches_branch_with_the_runs_residual_floor():
+    # The branch switch of a natural-parameter run converges its bordered corrector to the run's
+    # absolute residual floor: a guess next to the critical state has a residual near round-off,
+    # which no relative tolerance can reduce (it failed with "no convergence ... residual 1e-18"
+    # on a 50k-unknown shell).
+    prob, load, tip = column(12, control="displacement")
+    result = follow_path(prob, load, method="natural", step=0.3, target=1.3, qoi={"tip": tip},
+                         stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=1e-4))
+    assert [e.kind for e in result.events] == ["bifurcation", "branch switch"]
+    end = result.points[-1]
+    assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
