@@ -275,7 +275,7 @@ class EquilibriumProblem(GelBody):
     def _build(self) -> None:
         V = self.space
         u, axial = self.parts(V.TrialFunction())
-        Fp = self.kinematics.deformation_gradient(u, axial=axial) if axial is not None else self.deformation_gradient(u)
+        Fp = self.deformation_gradient(u, axial)
         energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, self.mu, self.lam0))
         energy = self.with_surface_energies(energy, u)
         w = self.kinematics.volume_weight()
