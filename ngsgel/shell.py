@@ -368,19 +368,23 @@ class GelShell(BuiltOnDemand):
         linear_moment = -self.thickness**3 / 12 * self._plane_stress(curvature_change, P)
         margins = []
         cauchy = []
+        volume = ngs.CF(0.0)
+        reference_volume = ngs.CF(0.0)
         for (zeta, w), lam3 in zip(self._layers, lams):
             A = P + zeta * weingarten + NN
             A_inv = ngs.Inv(A)
             weight = 0.5 * self.thickness * w * ngs.Det(A)
+            reference_volume = reference_volume + weight
             Fq = (Fm + zeta * lever * bend_map * S) * A_inv + lam3 * ngs.OuterProduct(n, N)
             psi = psi + weight * mat.reference_energy(Fq, mu, lam0)
             piola = mat.first_piola(lam0 * Fq, mu) / lam0**2  # dW'/dF of the swollen reference
             dpsi_dS = dpsi_dS + weight * zeta * lever * bend_map.trans * piola * A_inv.trans
             membrane = membrane + weight * piola * A_inv.trans
             margins.append(lam0**3 * ngs.Det(Fq) - 1.0)
+            volume = volume + weight * ngs.Det(Fq)
             cauchy.append(mat.reference_cauchy(Fq, mu, lam0))
         return dict(psi=psi, moment=-dpsi_dS, linear_moment=linear_moment, membrane=membrane, Fm=Fm, n=n, N=N, lever=lever,
-                    margins=margins, cauchy=cauchy)
+                    margins=margins, cauchy=cauchy, volume=volume, reference_volume=reference_volume)
 
     def _plane_stress(self, strain, P):
         """Linearised drained plane-stress law of the reference state (local ``Nv``):
@@ -528,6 +532,14 @@ class GelShell(BuiltOnDemand):
     def bending_moment(self) -> ngs.CoefficientFunction:
         """Bending moment per unit reference length, ``-dpsi/dS`` (tangential 3x3, reference frame)."""
         return self._state_kinematics()["moment"]
+
+    def volume_ratio(self) -> float:
+        """Current gel volume over that of the reference (the swollen, unloaded shell), both
+        integrated through the thickness with the layer quadrature and the shifter ``det A``."""
+        kin = self._state_kinematics()
+        order = 2 * self.order + 2
+        current = ngs.Integrate(kin["volume"], self.mesh, ngs.BND, order=order)
+        return current / ngs.Integrate(kin["reference_volume"], self.mesh, ngs.BND, order=order)
 
     def layer_cauchy(self, layer: int) -> ngs.CoefficientFunction:
         """Cauchy stress (3x3) at through-thickness point ``layer`` (0 = most negative zeta)."""

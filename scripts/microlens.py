@@ -19,6 +19,17 @@ Models (``--model``):
   and its ``k`` (the number of vertices of the first polygonal state). Past that depth the
   section follows the axisymmetric branch, now unstable: the ``k`` that are unstable there are
   recorded but are not the post-buckled vertex counts.
+- ``shell``: ``ngsgel.shell.GelShell`` on the cap's mid-surface (by default the half cap
+  ``y >= 0`` with mirror symmetry, which carries every ``cos k theta`` pattern and the lateral
+  load along x). The depth is stepped by natural-parameter continuation (displacement control,
+  as an experiment: where the path ends at a limit point the run stops and says so) with the
+  exact negative count of the shell's tangent at every state; each change is located and the run
+  switches onto the bifurcated branch of fewer negative eigenvalues (``StabilityOptions``), so the
+  path goes through the polygonal states. The vertex count along it is the dominant ``cos k
+  theta`` of the normal deflection on circles of the mid-surface. ``--mu-at DEPTH --mu-to MU``
+  then changes ``mu`` at that depth (the thesis's return of a 4-vertex state to axisymmetry).
+  The shell needs the dimple's ridge resolved (width ``sqrt(t r)``): ``--maxh 0.05`` for
+  ``H = 0.3`` (docs/microlens.md); a step costs minutes.
 
 Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructed here):
 
@@ -30,6 +41,7 @@ Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructe
 
     python scripts/microlens.py --out results/microlens --H 0.1 --depth 1.0 [--quick]
     python scripts/microlens.py --out results/microlens_out --H 0.2 --direction outward --depth 1.0
+    python scripts/microlens.py --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
 """
 
 from __future__ import annotations
@@ -45,16 +57,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import ngsolve as ngs  # noqa: E402
 
-from geometries import cap_section  # noqa: E402
+from geometries import cap_midsurface, cap_section  # noqa: E402
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path  # noqa: E402
-from ngsgel.continuation import PathResult, StabilityOptions  # noqa: E402
+from ngsgel.continuation import ContinuationError, PathResult, StabilityOptions  # noqa: E402
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
+from ngsgel.patterns import WaveAnalysis, load_drops, wave_number  # noqa: E402
+from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stability import conjugate_force  # noqa: E402
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 THICKNESS_RATIO = 0.005  # t / r
-DIRECTIONS = ("inward", "outward")
+DIRECTIONS = ("inward", "outward", "lateral")
+AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
 
 
 @dataclass(frozen=True)
@@ -71,8 +86,7 @@ class Indentation:
         if not (isinstance(self.H, (int, float)) and 0 < self.H <= 1):
             raise ValueError(f"H (apex height / base radius) must be in (0, 1], got {self.H!r}")
         if self.direction not in DIRECTIONS:
-            raise ValueError(f"direction must be one of {DIRECTIONS} for the axisymmetric model, "
-                             f"got {self.direction!r}")
+            raise ValueError(f"direction must be one of {DIRECTIONS}, got {self.direction!r}")
         if not (isinstance(self.depth, (int, float)) and 0 < self.depth <= 3):
             raise ValueError(f"depth (final depth / H) must be in (0, 3], got {self.depth!r}")
         if not (isinstance(self.mu, (int, float)) and -1 <= self.mu <= 0):
@@ -88,8 +102,13 @@ class Indentation:
 
     @property
     def sign(self) -> float:
-        """Sign of the prescribed vertical apex displacement."""
+        """Sign of the prescribed apex displacement (vertical; lateral: along +x)."""
         return -1.0 if self.direction == "inward" else 1.0
+
+    @property
+    def component(self) -> str:
+        """Component of the apex displacement that is prescribed."""
+        return "x" if self.direction == "lateral" else "z"
 
 
 @dataclass(frozen=True)
@@ -117,6 +136,9 @@ class AxisymmetricCap:
     """The cap's r-z section under a prescribed vertical apex displacement ``sign * depth``."""
 
     def __init__(self, case: Indentation, res: SectionResolution):
+        if case.direction not in AXISYMMETRIC_DIRECTIONS:
+            raise ValueError(f"direction must be one of {AXISYMMETRIC_DIRECTIONS} for the axisymmetric model "
+                             f"(a lateral load needs --model shell), got {case.direction!r}")
         self.case = case
         self.lam0 = GEL.lam_free(case.mu)
         self.force_scale = GEL.youngs_modulus(self.lam0) * case.t**2
@@ -140,6 +162,116 @@ class AxisymmetricCap:
         """Gel volume over its value in the free-swollen, unloaded cap, minus one."""
         p = self.problem
         return p.integrate(ngs.Det(p.deformation_gradient(p.displacement))) / self.volume0 - 1.0
+
+
+@dataclass(frozen=True)
+class ShellResolution:
+    """Mid-surface element size ``maxh``, ``apex_maxh`` on the apex patch of radius ``apex``,
+    displacement ``order``; ``half``: the half cap ``y >= 0`` with mirror symmetry; ``realcompile``:
+    compile the shell's energy to C++ (~30 s once, then 2-3x faster steps)."""
+
+    maxh: float = 0.05
+    apex_maxh: float = 0.01
+    order: int = 3
+    apex: float = 0.02
+    half: bool = True
+    realcompile: bool = True
+
+    def __post_init__(self):
+        if not (0 < self.maxh <= 0.5):
+            raise ValueError(f"maxh must be in (0, 0.5], got {self.maxh!r}")
+        if not (0 < self.apex <= 0.2):
+            raise ValueError(f"apex (patch radius / R) must be in (0, 0.2], got {self.apex!r}")
+        if not (0 < self.apex_maxh <= self.maxh):
+            raise ValueError(f"apex_maxh must be in (0, maxh = {self.maxh}], got {self.apex_maxh!r}")
+        if not (isinstance(self.order, int) and 2 <= self.order <= 5):
+            raise ValueError(f"order must be an integer in [2, 5] for the shell, got {self.order!r}")
+
+
+def cap_wave_number(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float, half: bool,
+                    radii=np.linspace(0.1, 0.9, 9), n: int = 64) -> tuple[float, WaveAnalysis | None]:
+    """Dominant ``cos k theta`` of the normal displacement ``u . (X - zc e_z)/r`` of a cap's
+    mid-surface (sphere of radius ``r`` centred at height ``zc``), sampled on the circles of
+    horizontal radii ``radii``; the circle where the non-axisymmetric part is largest decides.
+    ``half``: the mesh is the half ``y >= 0`` of a mirror-symmetric cap (``u(theta) = u(-theta)``).
+    Returns that radius and the analysis (``None`` where every circle is exactly constant)."""
+    w = ngs.InnerProduct(u, ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r)
+    theta = 2.0 * np.pi * np.arange(n) / n
+    best = None
+    for rho in radii:
+        z = zc + math.sqrt(r * r - rho * rho)
+        ys = np.abs(rho * np.sin(theta)) if half else rho * np.sin(theta)
+        values = np.array([w(mesh(float(rho * c), float(y), z, ngs.BND)) for c, y in zip(np.cos(theta), ys)])
+        if np.ptp(values) == 0.0:  # exactly axisymmetric here (e.g. the unloaded cap): no wave
+            continue
+        analysis = wave_number(values, max_mode=12)
+        if best is None or analysis.amplitude > best[1].amplitude:
+            best = (float(rho), analysis)
+    return best if best is not None else (float(radii[0]), None)
+
+
+class ShellCap:
+    """The cap as a ``GelShell`` under a prescribed apex displacement ``sign * depth`` along
+    ``case.component`` (the apex patch moves rigidly), base clamped."""
+
+    def __init__(self, case: Indentation, res: ShellResolution):
+        self.case, self.res = case, res
+        self.lam0 = GEL.lam_free(case.mu)
+        self.force_scale = GEL.youngs_modulus(self.lam0) * case.t**2
+        bundle = cap_midsurface(H=case.H, maxh=res.maxh, apex_radius=res.apex, apex_maxh=res.apex_maxh,
+                                curve_order=res.order, half=res.half)
+        self.mesh = bundle.mesh
+        self.shell = GelShell(self.mesh, material=GEL, lam0=self.lam0, thickness=case.t, mu=case.mu,
+                              order=res.order, realcompile=res.realcompile)
+        self.shell.clamp("base")
+        if res.half:
+            self.shell.symmetry("sym", normal="y")
+        self.depth = ngs.Parameter(0.0)
+        self.shell.prescribe_region("apex", case.component, case.sign * self.depth)
+        self._waves: tuple[float, WaveAnalysis | None] = (0.0, None)
+
+    def force(self) -> float:
+        """``F/(E0 t^2)`` of the whole cap (twice the half cap's)."""
+        copies = 2.0 if self.res.half else 1.0
+        return copies * conjugate_force(self.shell, self.depth) / self.force_scale
+
+    def volume_change(self) -> float:
+        return self.shell.volume_ratio() - 1.0
+
+    def update_waves(self) -> float:
+        """Vertex count of the current state: 0 while the dominant wave's normal deflection is
+        below 0.05 t (the discretisation's own asymmetry and the growth of the critical mode just
+        before a bifurcation stay below: 0.005 t at 0.99 of the onset depth, h = 0.05)."""
+        self._waves = cap_wave_number(self.shell.displacement, self.mesh, r=self.case.r, zc=self.case.H - self.case.r,
+                                      half=self.res.half)
+        return float(self._waves[1].k) if self.wave_amplitude() > 0.05 else 0.0
+
+    def wave_amplitude(self) -> float:
+        """Amplitude of the dominant wave over ``t`` (of the last ``update_waves``)."""
+        analysis = self._waves[1]
+        return 0.0 if analysis is None else analysis.amplitude / self.case.t
+
+
+def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step: float, max_step: float,
+                 history=None, vtk=None, progress=None, stage: str = "indentation") -> PathResult:
+    """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
+    stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
+    onto the bifurcated branch. A path that cannot go on (a limit point under displacement control)
+    ends with ``stop_reason`` "stalled: ..." instead of raising."""
+    case = cap.case
+    tol = 2e-3 * case.H if parameter is cap.depth else step / 50
+    qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "mu": lambda: cap.shell.mu.Get(), "force": cap.force,
+           "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude}
+    try:
+        return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
+                           stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
+                           qoi=qoi, history=history, vtk=vtk, progress=progress,
+                           # a chord step costs a residual, ~1/25 of a shell tangent
+                           newton_options={"reuse_factorisation": True})
+    except ContinuationError as error:
+        result = error.result
+        result.stop_reason = f"stalled in the {stage}: {error}"
+        return result
 
 
 class HarmonicMonitor:
@@ -328,14 +460,104 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
     return summary
 
 
+def vertex_sequence(path: PathResult) -> list[dict]:
+    """The states along the path where the vertex count changes: ``k`` from then on."""
+    changes, last = [], None
+    for point in path.points:
+        k = int(point.qoi["k"])
+        if k != last:
+            changes.append({"d_over_H": float(point.qoi["d_over_H"]), "mu": float(point.qoi["mu"]), "k": k,
+                            "force": float(point.qoi["force"])})
+            last = k
+    return changes
+
+
+def shell_summary(case: Indentation, cap: ShellCap, stages: list[tuple[str, PathResult]]) -> dict:
+    summary = {"ndof": cap.shell.space.ndof, "elements": cap.mesh.GetNE(ngs.BND), "t": case.t, "r": case.r}
+    for name, path in stages:
+        d, f = path.column("d_over_H"), path.column("force")
+        summary[name] = {
+            "stop_reason": path.stop_reason, "steps": len(path.points) - 1,
+            "events": [{"kind": ev.kind, "d_over_H": cap.depth.Get() / case.H if name == "mu change" else ev.parameter / case.H,
+                        "parameter": ev.parameter, "parameter_error": ev.parameter_error,
+                        "negative_before": ev.negative_before, "negative_after": ev.negative_after} for ev in path.events],
+            "vertex_sequence": vertex_sequence(path),
+            "load_drops": [asdict(drop) for drop in load_drops(d, f)] if name == "indentation" else [],
+            "max_volume_change": float(np.max(np.abs(path.column("volume_change")))),
+        }
+    return summary
+
+
+def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> None:
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
+    d, f, k = path.column("d_over_H"), path.column("force"), path.column("k")
+    ax.plot(d, f, "-", color="k", lw=1.0)
+    for kk in sorted(set(k.astype(int))):
+        sel = k == kk
+        ax.plot(d[sel], f[sel], "o", ms=3, label="axisymmetric" if kk == 0 else f"{kk} vertices")
+    for ev in summary["indentation"]["events"]:
+        ax.axvline(ev["d_over_H"], color="tab:blue", lw=0.6, ls=":")
+    ax.set_xlabel("d/H")
+    ax.set_ylabel("F/(E0 t^2)")
+    ax.set_title(f"shell, H/R = {case.H:g}, {case.direction}")
+    ax.legend(fontsize=7)
+    bx.plot(d, 100 * path.column("volume_change"), color="k")
+    bx.set_xlabel("d/H")
+    bx.set_ylabel("gel volume change (%)")
+    fig.tight_layout()
+    fig.savefig(filename, dpi=130)
+    plt.close(fig)
+
+
+def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
+              mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, progress=None) -> dict:
+    """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
+    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth."""
+    if (mu_at is None) != (mu_to is None):
+        raise ValueError("mu_at and mu_to go together (the depth / H where mu changes, and its new value)")
+    if mu_at is not None:
+        if not 0 < mu_at <= case.depth:
+            raise ValueError(f"mu_at (depth / H) must be in (0, depth = {case.depth}], got {mu_at!r}")
+        if not -1 <= mu_to <= 0 or mu_to == case.mu:
+            raise ValueError(f"mu_to must be in [-1, 0] and differ from mu = {case.mu}, got {mu_to!r}")
+    start = time.perf_counter()
+    run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
+                                        "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
+                                        "mu_at": mu_at, "mu_to": mu_to})
+    cap = ShellCap(case, res)
+    vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
+    with History(run_dir.file("path.csv")) as history:
+        depth_end = (case.depth if mu_at is None else mu_at) * case.H
+        stages = [("indentation", follow_shell(cap, cap.depth, depth_end, step=step * case.H,
+                                               max_step=max_step * case.H, history=history, vtk=vtk,
+                                               progress=progress))]
+        if mu_at is not None and stages[0][1].stop_reason == "target":
+            mu_step = abs(mu_to - case.mu) / mu_steps
+            stages.append(("mu change", follow_shell(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
+                                                     history=history, vtk=vtk, progress=progress,
+                                                     stage="mu change")))
+    summary = shell_summary(case, cap, stages)
+    summary["wall_s"] = time.perf_counter() - start
+    run_dir.write_json("summary.json", summary)
+    draw_shell(case, stages[0][1], summary, run_dir.file("force_depth.png"))
+    return summary
+
+
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/microlens", quick="coarse section, H = 0.3, to d/H = 0.6")
     parser.add_argument("--H", type=float, default=0.3, help="apex height / base radius")
     parser.add_argument("--direction", default="inward", choices=DIRECTIONS)
     parser.add_argument("--depth", type=float, default=1.0, help="final depth / H")
     parser.add_argument("--mu", type=float, default=0.0, help="chemical potential of the bath")
-    parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric",))
-    parser.add_argument("--maxh", type=float, default=0.01)
+    parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric", "shell"))
+    parser.add_argument("--maxh", type=float, default=None,
+                        help="cell length along the section (axisymmetric, default 0.01) or element size of the "
+                             "mid-surface (shell, default 0.05)")
+    parser.add_argument("--apex-maxh", type=float, default=0.01, help="shell: element size on the apex patch")
+    parser.add_argument("--full", action="store_true", help="shell: the whole cap instead of the mirror half")
+    parser.add_argument("--step", type=float, default=0.025, help="shell: depth step / H (natural parameter)")
+    parser.add_argument("--mu-at", type=float, default=None, help="shell: change mu at this depth / H ...")
+    parser.add_argument("--mu-to", type=float, default=None, help="... to this value")
     parser.add_argument("--layers", type=int, default=2)
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
@@ -343,10 +565,12 @@ def main(argv=None) -> dict:
     parser.add_argument("--fit-depth", type=float, default=0.1, help="fit the early response up to this d/H")
     args = parser.parse_args(argv)
     quick = quick_run(args)
+    if args.model == "shell":
+        return main_shell(args, quick)
     case = Indentation(H=0.3 if quick else args.H, direction=args.direction, depth=0.6 if quick else args.depth,
                        mu=args.mu)
     res = (SectionResolution(maxh=0.04, layers=2, order=2, apex=args.apex) if quick else
-           SectionResolution(maxh=args.maxh, layers=args.layers, order=args.order, apex=args.apex))
+           SectionResolution(maxh=args.maxh or 0.01, layers=args.layers, order=args.order, apex=args.apex))
     if not (isinstance(args.kmax, int) and 2 <= args.kmax <= 40):
         raise ValueError(f"kmax must be an integer in [2, 40], got {args.kmax!r}")
     if not 0 < args.fit_depth <= 1:
@@ -360,6 +584,27 @@ def main(argv=None) -> dict:
           f"{None if first is None else (first['k'], round(first['d_over_H'], 4))}, fit C = {summary['fit']['C']:.4g} "
           f"(misfit {summary['fit']['misfit']:.2g}), max |volume change| {summary['max_volume_change']:.2e}, "
           f"{summary['wall_s']:.1f} s")
+    return summary
+
+
+def main_shell(args, quick: bool) -> dict:
+    """``--model shell``; ``--quick``: a coarse half cap (h = 0.2, order 2) to d/H = 0.3, which
+    exercises the run but does not resolve the ridge where the first polygon forms."""
+    case = Indentation(H=args.H, direction=args.direction, depth=0.3 if quick else args.depth, mu=args.mu)
+    res = ShellResolution(maxh=0.2 if quick else (args.maxh or 0.05), apex_maxh=0.05 if quick else args.apex_maxh,
+                          order=2 if quick else args.order, apex=args.apex, half=not args.full,
+                          realcompile=not quick)
+    summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
+                        mu_at=args.mu_at, mu_to=args.mu_to, progress=Progress("microlens shell"))
+    for name in ("indentation", "mu change"):
+        if name in summary:
+            stage = summary[name]
+            print(f"{name}: {stage['steps']} steps ({stage['stop_reason']}), events "
+                  f"{[(e['kind'], round(e['d_over_H'], 4)) for e in stage['events']]}, vertices "
+                  f"{[(v['k'], round(v['d_over_H'], 3)) for v in stage['vertex_sequence']]}, load drops "
+                  f"{[(round(x['displacement'], 3), round(x['relative_drop'], 4)) for x in stage['load_drops']]}, "
+                  f"max |volume change| {stage['max_volume_change']:.2e}")
+    print(f"shell: {summary['ndof']} unknowns, {summary['wall_s']:.1f} s")
     return summary
 
 

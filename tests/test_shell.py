@@ -97,6 +97,8 @@ def test_free_swelling_is_the_closed_form(shape):
     assert l2(shell.displacement - (c - 1) * X, mesh) < 1e-10 * scale
     area = ngs.Integrate(ngs.CF(1.0), mesh, ngs.BND)
     assert l2(shell.thickness_stretch() - c, mesh) < 1e-12 * math.sqrt(area)
+    # the gel volume follows the closed form too, shifters of the curved shell included
+    assert shell.volume_ratio() == pytest.approx(c**3, rel=1e-10)
 
 
 # ----------------------------------------------------------------------------- plate bending
