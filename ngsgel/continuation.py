@@ -23,6 +23,7 @@ optionally followed onto the branch of lower energy.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -375,8 +376,9 @@ class _Driver:
     def __init__(self, problem, parameter, *, stability: StabilityOptions | None,
                  qoi: Mapping[str, Callable[[], float]], history, vtk, vtk_every: int,
                  progress: Callable[[str], None] | None, keep_states: bool, stop, max_steps: int,
-                 locate: bool, newton_options: dict):
+                 locate: bool, newton_options: dict, checkpoint_file: str | Path | None = None):
         self.problem = problem
+        self.checkpoint_file = None if checkpoint_file is None else Path(checkpoint_file)
         self.parameter = parameter
         self.stability = stability
         self.qoi = dict(qoi)
@@ -549,6 +551,16 @@ class _Driver:
                           previous_parameter=None if previous is None else previous.parameter,
                           previous_state=None if previous is None else previous.state, step=step, scale=scale)
 
+    def keep(self, method: str, current: _Converged, previous: _Converged | None, step: float,
+             scale: float | None) -> None:
+        """Rewrite ``checkpoint_file`` (if any) for the path so far; the replace is atomic, so a run
+        stopped while writing leaves the previous step's checkpoint."""
+        if self.checkpoint_file is None:
+            return
+        partial = self.checkpoint_file.with_name(self.checkpoint_file.stem + ".partial.npz")
+        self.checkpoint(method, current, previous, step, scale).save(partial)
+        os.replace(partial, self.checkpoint_file)
+
 
 def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclength", step: float,
                 target: float | None = None, min_step: float | None = None, max_step: float | None = None,
@@ -558,7 +570,7 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
                 history=None, vtk=None, vtk_every: int = 1, progress: Callable[[str], None] | None = None,
                 restart: Checkpoint | None = None, keep_states: bool = False, grow: float = 1.5,
                 easy_iterations: int = 4, hard_iterations: int = 8,
-                newton_options: dict | None = None) -> PathResult:
+                newton_options: dict | None = None, checkpoint_file: str | Path | None = None) -> PathResult:
     """Follow the equilibrium path of ``problem`` in ``parameter`` from its current state
     (equilibrated first) or from ``restart``.
 
@@ -575,6 +587,8 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     ``newton_options`` go to every Newton solve; unless it sets ``atol``, solves get the floor
     ``1e-10 * step * |dR/dlambda|`` (a solve that starts next to its solution cannot reduce a
     residual at round-off level by a relative factor).
+    ``checkpoint_file`` (``.npz``): the ``Checkpoint`` of the path so far, rewritten after every
+    step (replaced atomically), so a long run that is stopped can go on with ``restart``.
     Raises ``ContinuationError`` (with the path so far) when the step falls below ``min_step``.
     """
     if method not in ("natural", "arclength"):
@@ -589,6 +603,8 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
     if restart is not None and restart.method != method:
         raise ValueError(f"the checkpoint is from a {restart.method!r} run, not {method!r}")
+    if checkpoint_file is not None and Path(checkpoint_file).suffix != ".npz":
+        raise ValueError(f"checkpoint_file must end in .npz, got {str(checkpoint_file)!r}")
     min_step = step * 1e-6 if min_step is None else min_step
     max_step = step * 10 if max_step is None else max_step
     if restart is not None:
@@ -602,7 +618,8 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     first = problem.solve(**newton_options)
     driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
                      vtk_every=vtk_every, progress=progress, keep_states=keep_states, stop=stop,
-                     max_steps=max_steps, locate=stabilization is None, newton_options=newton_options)
+                     max_steps=max_steps, locate=stabilization is None, newton_options=newton_options,
+                     checkpoint_file=checkpoint_file)
     previous = None
     if restart is not None and restart.previous_state is not None:
         previous = _Converged(restart.previous_parameter, restart.previous_state, None)
@@ -653,10 +670,12 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
             driver.record(point, events=(kind,))
         if switched:
             state["current"] = located[-1][0]
+            driver.keep("natural", state["current"], None, abs(b.parameter - a.parameter), None)
             return True
         driver._goto(b)
         pp = driver.record(b, dissipated=system.fraction if stabilization is not None else None)
         state["current"] = b
+        driver.keep("natural", b, None, abs(b.parameter - a.parameter), None)
         return driver.should_stop(pp)
 
     h = step
@@ -746,10 +765,12 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
             driver.record(point, events=(kind,))
         if switched:
             previous, current = located[-2][0], located[-1][0]
+            driver.keep("arclength", current, previous, ds, scale)
             continue
         driver._goto(b)
         pp = driver.record(b)
         previous, current = current, b
+        driver.keep("arclength", current, previous, ds, scale)
         if landed:
             driver.stop_reason = "target"
             break

@@ -59,7 +59,7 @@ import ngsolve as ngs  # noqa: E402
 
 from geometries import cap_midsurface, cap_section  # noqa: E402
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path  # noqa: E402
-from ngsgel.continuation import ContinuationError, PathResult, StabilityOptions  # noqa: E402
+from ngsgel.continuation import Checkpoint, ContinuationError, PathResult, StabilityOptions  # noqa: E402
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
 from ngsgel.patterns import WaveAnalysis, load_drops, wave_number  # noqa: E402
@@ -253,11 +253,13 @@ class ShellCap:
 
 
 def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step: float, max_step: float,
-                 history=None, vtk=None, progress=None, stage: str = "indentation") -> PathResult:
+                 history=None, vtk=None, progress=None, stage: str = "indentation", checkpoint_file=None,
+                 restart: Checkpoint | None = None) -> PathResult:
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
     onto the bifurcated branch. A path that cannot go on (a limit point under displacement control)
-    ends with ``stop_reason`` "stalled: ..." instead of raising."""
+    ends with ``stop_reason`` "stalled: ..." instead of raising. ``checkpoint_file``/``restart``:
+    see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
     qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "mu": lambda: cap.shell.mu.Get(), "force": cap.force,
@@ -266,6 +268,7 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
                            qoi=qoi, history=history, vtk=vtk, progress=progress,
+                           checkpoint_file=checkpoint_file, restart=restart,
                            # a chord step costs a residual, ~1/25 of a shell tangent
                            newton_options={"reuse_factorisation": True})
     except ContinuationError as error:
@@ -510,9 +513,12 @@ def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> 
 
 
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
-              mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, progress=None) -> dict:
+              mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
+              progress=None) -> dict:
     """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
-    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth."""
+    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth.
+    Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
+    ``restart`` (such a file of the indentation) goes on from it."""
     if (mu_at is None) != (mu_to is None):
         raise ValueError("mu_at and mu_to go together (the depth / H where mu changes, and its new value)")
     if mu_at is not None:
@@ -520,22 +526,25 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
             raise ValueError(f"mu_at (depth / H) must be in (0, depth = {case.depth}], got {mu_at!r}")
         if not -1 <= mu_to <= 0 or mu_to == case.mu:
             raise ValueError(f"mu_to must be in [-1, 0] and differ from mu = {case.mu}, got {mu_to!r}")
+    checkpoint = None if restart is None else Checkpoint.load(restart)
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
                                         "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
-                                        "mu_at": mu_at, "mu_to": mu_to})
+                                        "mu_at": mu_at, "mu_to": mu_to, "restart": restart})
     cap = ShellCap(case, res)
     vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
     with History(run_dir.file("path.csv")) as history:
         depth_end = (case.depth if mu_at is None else mu_at) * case.H
         stages = [("indentation", follow_shell(cap, cap.depth, depth_end, step=step * case.H,
                                                max_step=max_step * case.H, history=history, vtk=vtk,
-                                               progress=progress))]
+                                               progress=progress, checkpoint_file=run_dir.file("checkpoint.npz"),
+                                               restart=checkpoint))]
         if mu_at is not None and stages[0][1].stop_reason == "target":
             mu_step = abs(mu_to - case.mu) / mu_steps
             stages.append(("mu change", follow_shell(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
                                                      history=history, vtk=vtk, progress=progress,
-                                                     stage="mu change")))
+                                                     stage="mu change",
+                                                     checkpoint_file=run_dir.file("mu_change.npz"))))
     summary = shell_summary(case, cap, stages)
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
@@ -558,6 +567,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--step", type=float, default=0.025, help="shell: depth step / H (natural parameter)")
     parser.add_argument("--mu-at", type=float, default=None, help="shell: change mu at this depth / H ...")
     parser.add_argument("--mu-to", type=float, default=None, help="... to this value")
+    parser.add_argument("--restart", default=None,
+                        help="shell: go on from this checkpoint.npz of an earlier run (same case and mesh)")
     parser.add_argument("--layers", type=int, default=2)
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
@@ -595,7 +606,8 @@ def main_shell(args, quick: bool) -> dict:
                           order=2 if quick else args.order, apex=args.apex, half=not args.full,
                           realcompile=not quick)
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
-                        mu_at=args.mu_at, mu_to=args.mu_to, progress=Progress("microlens shell"))
+                        mu_at=args.mu_at, mu_to=args.mu_to, restart=args.restart,
+                        progress=Progress("microlens shell"))
     for name in ("indentation", "mu change"):
         if name in summary:
             stage = summary[name]

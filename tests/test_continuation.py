@@ -183,8 +183,13 @@ def test_history_and_restart_reproduce_an_uninterrupted_run(tmp_path):
     prob, load, deflection = arch(elements=8, order=2)
     with History(tmp_path / "history.csv") as history:
         first = follow_path(prob, load, step=0.005, max_step=0.005, max_steps=6, qoi={"w": deflection},
-                            history=history, stability=StabilityOptions(eigenvalues=2))
-    first.checkpoint.save(tmp_path / "checkpoint.npz")
+                            history=history, stability=StabilityOptions(eigenvalues=2),
+                            checkpoint_file=tmp_path / "checkpoint.npz")
+    # the per-step checkpoint file holds the end of the run, as the returned checkpoint does
+    kept = Checkpoint.load(tmp_path / "checkpoint.npz")
+    assert kept.parameter == first.checkpoint.parameter and np.array_equal(kept.state, first.checkpoint.state)
+    assert np.array_equal(kept.previous_state, first.checkpoint.previous_state)
+    assert not (tmp_path / "checkpoint.partial.npz").exists()
     rows = list(csv.DictReader(open(tmp_path / "history.csv")))
     assert len(rows) == len(first.points) == 7
     assert set(rows[0]) >= {"step", "parameter", "w", "energy", "iterations", "negative", "eig0", "eig1",
@@ -195,6 +200,25 @@ def test_history_and_restart_reproduce_an_uninterrupted_run(tmp_path):
                          restart=Checkpoint.load(tmp_path / "checkpoint.npz"))
     resumed = [p.parameter for p in first.points] + [p.parameter for p in second.points[1:]]
     assert np.allclose(resumed, whole.column("parameter"), rtol=0, atol=1e-10)
+
+
+def test_natural_run_keeps_a_checkpoint_of_every_step(tmp_path):
+    # a run stopped after any step can go on from the file: here stopped by max_steps, the file
+    # then holds the last converged state, and the resumed run lands where an uninterrupted one does
+    prob, load, deflection = column(8, control="displacement", order=2)
+    whole = follow_path(prob, load, method="natural", step=0.2, max_step=0.2, target=0.8)
+    prob, load, deflection = column(8, control="displacement", order=2)
+    first = follow_path(prob, load, method="natural", step=0.2, max_step=0.2, target=0.8, max_steps=2,
+                        checkpoint_file=tmp_path / "path.npz")
+    kept = Checkpoint.load(tmp_path / "path.npz")
+    assert first.stop_reason == "max_steps" and kept.parameter == pytest.approx(0.4)
+    assert np.array_equal(kept.state, first.checkpoint.state)
+    prob, load, deflection = column(8, control="displacement", order=2)
+    second = follow_path(prob, load, method="natural", step=0.2, max_step=0.2, target=0.8, restart=kept)
+    assert second.points[-1].parameter == pytest.approx(0.8)
+    assert np.allclose(prob.save_state(), whole.checkpoint.state, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="checkpoint_file"):
+        follow_path(prob, load, method="natural", step=0.2, target=0.8, checkpoint_file=tmp_path / "path.txt")
 
 
 def test_seeded_mode_imperfection_grows_as_southwell_says():

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import microlens
+from ngsgel.continuation import Checkpoint
 
 
 def coarse_cap(H=0.3, direction="inward", mu=0.0):
@@ -92,8 +93,9 @@ def test_quick_shell_run_follows_the_axisymmetric_start(tmp_path):
     assert stage["stop_reason"] == "target" and stage["events"] == []
     assert stage["max_volume_change"] < 2e-3
     assert stage["load_drops"] == []
-    for name in ("path.csv", "summary.json", "force_depth.png", "cap.pvd"):
+    for name in ("path.csv", "summary.json", "force_depth.png", "cap.pvd", "checkpoint.npz"):
         assert (tmp_path / name).stat().st_size > 0
+    assert Checkpoint.load(tmp_path / "checkpoint.npz").parameter == pytest.approx(0.3 * 0.3)
 
 
 def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
