@@ -399,6 +399,20 @@ def fits(case: Indentation, path: PathResult, fit_depth: float) -> dict:
             "fit_range_d_over_H": fit_depth}
 
 
+def finish_force_figure(fig, ax, bx, path: PathResult, title: str, filename) -> None:
+    """Labels of the force panel ``ax``, the volume change along the path in ``bx``, saved."""
+    ax.set_xlabel("d/H")
+    ax.set_ylabel("F/(E0 t^2)")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    bx.plot(path.column("d_over_H"), 100 * path.column("volume_change"), color="k")
+    bx.set_xlabel("d/H")
+    bx.set_ylabel("gel volume change (%)")
+    fig.tight_layout()
+    fig.savefig(filename, dpi=130)
+    plt.close(fig)
+
+
 def draw(case: Indentation, path: PathResult, summary: dict, filename) -> None:
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
     d, f = path.column("d_over_H"), path.column("force")
@@ -423,16 +437,7 @@ def draw(case: Indentation, path: PathResult, summary: dict, filename) -> None:
     else:
         s = 1 + xs
         ax.plot(xs, fit["C"] * (s - s**-2), "--", color="tab:green", label=f"C[(1+d/H)-(1+d/H)^-2], C = {fit['C']:.3g}")
-    ax.set_xlabel("d/H")
-    ax.set_ylabel("F/(E0 t^2)")
-    ax.set_title(f"H/R = {case.H:g}, {case.direction}")
-    ax.legend(fontsize=7)
-    bx.plot(d, 100 * path.column("volume_change"), color="k")
-    bx.set_xlabel("d/H")
-    bx.set_ylabel("gel volume change (%)")
-    fig.tight_layout()
-    fig.savefig(filename, dpi=130)
-    plt.close(fig)
+    finish_force_figure(fig, ax, bx, path, f"H/R = {case.H:g}, {case.direction}", filename)
 
 
 def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, step: float = 0.01,
@@ -500,16 +505,7 @@ def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> 
         ax.plot(d[sel], f[sel], "o", ms=3, label="axisymmetric" if kk == 0 else f"{kk} vertices")
     for ev in summary["indentation"]["events"]:
         ax.axvline(ev["d_over_H"], color="tab:blue", lw=0.6, ls=":")
-    ax.set_xlabel("d/H")
-    ax.set_ylabel("F/(E0 t^2)")
-    ax.set_title(f"shell, H/R = {case.H:g}, {case.direction}")
-    ax.legend(fontsize=7)
-    bx.plot(d, 100 * path.column("volume_change"), color="k")
-    bx.set_xlabel("d/H")
-    bx.set_ylabel("gel volume change (%)")
-    fig.tight_layout()
-    fig.savefig(filename, dpi=130)
-    plt.close(fig)
+    finish_force_figure(fig, ax, bx, path, f"shell, H/R = {case.H:g}, {case.direction}", filename)
 
 
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
