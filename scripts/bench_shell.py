@@ -26,14 +26,14 @@ import numpy as np
 import ngsolve as ngs
 from netgen import occ
 
-from geometries import cap_midsurface, cap_section, cap_solid, plate_midsurface
+from geometries import cap_midsurface, cap_section, cap_solid, plate_midsurface, plate_solid
 from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, follow_path, ramp
 from ngsgel.continuation import StabilityOptions
 from ngsgel.output import History, Progress, RunDirectory
 from ngsgel.patterns import sample_on_circle, wave_number
 from ngsgel.shell import GelShell, plate_bending_stiffness
-from ngsgel.stability import conjugate_force
+from ngsgel.stability import conjugate_force, load_rate
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 MU0, MU1 = -0.05, -0.049
@@ -299,6 +299,14 @@ def _axis_vertex(mesh: ngs.Mesh, axis: int, radius: float) -> tuple[float, float
     return tuple(points[best])
 
 
+def graded_gel(p: float) -> tuple[FloryRehnerGel, float]:
+    """The graded gel of exponent ``p`` (``Nv`` a field of x, y) and the reference stretch: the
+    stiff gel's free swelling at ``GRADED_MU0`` (as ``graded_plate.build``, MODEL.md 2)."""
+    stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=GEL.chi)
+    gel = FloryRehnerGel(Nv=radial_grading(GRADED_N0, GRADED_NR, p, 1.0), chi=GEL.chi)
+    return gel, stiff.lam_free(GRADED_MU0)
+
+
 def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T, realcompile: bool = False,
                        half: bool = False) -> tuple[GelShell, ngs.Mesh, list]:
     """The graded disk (thickness ``t``) as a ``GelShell`` on the full disk at ``mu0`` (not yet solved): graded
@@ -311,10 +319,9 @@ def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T
     is excluded); three pins (centre: x, z; the x-axis vertex: z).
     Returns the shell, the mesh and the off-centre pin points."""
     mesh = split_disk(maxh=maxh, curve_order=order, half=half)
-    stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=GEL.chi)
-    gel = FloryRehnerGel(Nv=radial_grading(GRADED_N0, GRADED_NR, p, 1.0), chi=GEL.chi)
-    shell = GelShell(mesh, material=gel, lam0=stiff.lam_free(GRADED_MU0), thickness=t, mu=GRADED_MU0,
-                     order=order, realcompile=realcompile)
+    gel, lam0 = graded_gel(p)
+    shell = GelShell(mesh, material=gel, lam0=lam0, thickness=t, mu=GRADED_MU0, order=order,
+                     realcompile=realcompile)
     if half:
         shell.symmetry("cut", normal="y")
         on_x = _axis_vertex(mesh, 0, PIN_RADIUS)
@@ -354,6 +361,23 @@ def plate_mode_wave(mode_u, mesh: ngs.Mesh, *, half: bool = False) -> dict:
     return {"k": best[1].k, "purity": best[1].purity, "k_second": best[1].second, "mode_radius": best[0]}
 
 
+def _graded_onset_path(problem, *, mu_max: float, step: float, tol: float, progress, history,
+                       newton_options: dict | None = None) -> tuple:
+    """``problem.mu`` stepped from ``mu0`` to ``mu_max`` by the continuation driver (natural) with
+    the exact negative count of the tangent, stopping at the first unstable state; the first
+    change located to ``tol`` in ``mu``. Returns the path and its part of an onset row."""
+    path = follow_path(problem, problem.mu, method="natural", step=step, max_step=step, target=mu_max,
+                       stability=StabilityOptions(eigenvalues=2, tol=tol), progress=progress,
+                       history=history, stop=lambda point: bool(point.negative), newton_options=newton_options)
+    row = {"ndof": problem.space.ndof, "steps": len(path.points), "found": bool(path.events),
+           "lowest_eigenvalue": [(pt.parameter, pt.eigenvalues[0]) for pt in path.points]}
+    if path.events:
+        event = path.events[0]
+        row.update(mu_critical=event.parameter, mu_error=event.parameter_error, event=event.kind,
+                   negative_after=event.negative_after)
+    return path, row
+
+
 def graded_plate_shell_onset(p: float, *, maxh: float, order: int, mu_max: float = -0.05, step: float = 0.05,
                              tol: float = 1e-5, progress=None, history=None) -> dict:
     """Onset of buckling of the free-swelling graded disk (``graded_plate_shell``): ``mu`` stepped
@@ -362,17 +386,97 @@ def graded_plate_shell_onset(p: float, *, maxh: float, order: int, mu_max: float
     start = time.perf_counter()
     shell, mesh, (on_x, on_y) = graded_plate_shell(p, maxh=maxh, order=order)
     mesh_seconds = time.perf_counter() - start
-    path = follow_path(shell, shell.mu, method="natural", step=step, max_step=step, target=mu_max,
-                       stability=StabilityOptions(eigenvalues=2, tol=tol), progress=progress,
-                       history=history, stop=lambda point: bool(point.negative))
-    row = {"model": "shell", "p": p, "order": order, "maxh": maxh, "ndof": shell.space.ndof,
-           "elements": mesh.GetNE(ngs.BND), "steps": len(path.points), "found": bool(path.events),
-           "lowest_eigenvalue": [(pt.parameter, pt.eigenvalues[0]) for pt in path.points]}
+    path, onset = _graded_onset_path(shell, mu_max=mu_max, step=step, tol=tol, progress=progress,
+                                     history=history)
+    row = {"model": "shell", "order": order, "maxh": maxh, "p": p, "elements": mesh.GetNE(ngs.BND), **onset}
     if path.events:
-        event = path.events[0]
-        row.update(mu_critical=event.parameter, mu_error=event.parameter_error, event=event.kind,
-                   negative_after=event.negative_after, **plate_mode_wave(event.mode.components[0], mesh),
+        row.update(**plate_mode_wave(path.events[0].mode.components[0], mesh),
                    pin_reactions=[shell.reaction(on_x, "z"), shell.reaction(on_y, "z")])
+    row["seconds"] = time.perf_counter() - start - mesh_seconds
+    return row
+
+
+def graded_plate_solid(p: float, *, maxh: float, layers: int, order: int,
+                       t: float = GRADED_T) -> tuple[EquilibriumProblem, ngs.Mesh, list[int]]:
+    """The graded disk as a 3D thin solid (``plate_solid``: ``layers`` prism layers under
+    triangles of size ``maxh``, elements and geometry of ``order``) at ``mu0``, not yet solved;
+    gel and reference as ``graded_plate_shell``. Use one layer: two curved layers lock (onset 20 %
+    late at h = 0.2, order 2, where one layer is 4.5 % late; docs/benchmarks.md).
+
+    Rigid motions are removed by six statically determinate pins on the vertex level nearest
+    the mid-plane (the mid-plane for an even ``layers``, the bottom face for one layer): z at the
+    three rim vertices nearest the polar angles 0, 2 pi/3, 4 pi/3, x and y at the vertex nearest
+    the centre, y at the rim vertex on the x axis (the mesh has no vertices on the axes inside the
+    rim). Every free equilibrium meets them after a rigid motion, and their reactions vanish (see
+    the onset row). For the flat state that motion is a z translation and a rotation about z of
+    ~0.01 (the centre vertex lies off the axis), no tilt: the z pins lie at one radius, where the
+    flat state's bottom face is level. The layout is not immaterial on coarse meshes (not
+    understood; statically determinate pins should not change an onset): the shell's layout (z
+    at the vertices nearest r = 0 and (0.25, 0), (0, 0.25), where the modes hardly move; the
+    flat state then tilts by the thickness change between those radii) moved the onsets by
+    -1.6 % (h = 0.2, order 2), +0.5 % (h = 0.15, order 2), -0.9 % (h = 0.3, order 3) and -0.02 %
+    (h = 0.2, order 3) (negative: earlier), and its location solves crawled above the Newton
+    floor of ``graded_plate_solid_onset`` at h = 0.1, order 2. Returns the problem, the mesh and
+    the pinned dofs."""
+    mesh = plate_solid(t=t, maxh=maxh, layers=layers, curve_order=order).mesh
+    gel, lam0 = graded_gel(p)
+    problem = EquilibriumProblem(mesh, kinematics=Solid3D(), materials=gel, lam0=lam0, mu=GRADED_MU0, order=order)
+    levels = np.unique(np.round([v.point[2] for v in mesh.vertices], 12))
+    z = float(levels[np.argmin(np.abs(levels))])
+    points = np.array([v.point for v in mesh.vertices])
+    on_level = np.flatnonzero(np.abs(points[:, 2] - z) < 1e-9)
+    on_rim = on_level[np.abs(np.hypot(points[on_level, 0], points[on_level, 1]) - 1.0) < 1e-9]
+    rim = [(math.cos(a), math.sin(a)) for a in (0.0, 2 * math.pi / 3, 4 * math.pi / 3)]
+    dofs = []
+    for target, components, among in [((0.0, 0.0), (0, 1), on_level), (rim[0], (1, 2), on_rim),
+                                      (rim[1], (2,), on_rim), (rim[2], (2,), on_rim)]:
+        vertex = among[np.argmin(np.sum((points[among] - (*target, z)) ** 2, axis=1))]
+        node = problem.space.GetDofNrs(ngs.NodeId(ngs.VERTEX, int(vertex)))
+        for component in components:
+            problem.fix_dof(node[component])
+            dofs.append(node[component])
+    return problem, mesh, dofs
+
+
+def without_rigid_deflection(w: ngs.CoefficientFunction, mesh: ngs.Mesh) -> ngs.CoefficientFunction:
+    """``w - (a + b x + c y)``: a deflection field without its L2 projection on the rigid
+    deflections (a translation and two tilts) over the body. A critical mode of a pinned free body
+    holds the rigid motion that zeroes it at the pins; this removes it, whatever the pins."""
+    basis = [ngs.CF(1.0), ngs.x, ngs.y]
+    gram = np.array([[ngs.Integrate(a * b, mesh) for b in basis] for a in basis])
+    coefficients = np.linalg.solve(gram, [ngs.Integrate(w * b, mesh) for b in basis])
+    return w - sum(float(c) * b for c, b in zip(coefficients, basis))
+
+
+def graded_plate_solid_onset(p: float, *, maxh: float, layers: int, order: int, mu_max: float = -0.05,
+                             step: float = 0.05, tol: float = 1e-5, newton_floor: float = 1e-7, progress=None,
+                             history=None) -> dict:
+    """Onset of buckling of the graded disk as a 3D thin solid (``graded_plate_solid``), located
+    as ``graded_plate_shell_onset`` (same path, stability check and tolerance); the wave number
+    from the critical mode's vertical displacement, without its rigid part
+    (``without_rigid_deflection``), on circles of the mid-plane (``plate_mode_wave``);
+    ``pin_reactions``: the residual at the six pinned dofs at the end.
+
+    Newton's absolute floor is ``newton_floor * step * |dR/dmu|`` (the driver's default: 1e-10):
+    next to the critical point Newton crawls at ~1e-8 of a step's load residual (likely: one
+    layer has no mid-plane vertices, the z pins lie on a face, and the tilts that Newton's steps
+    pick up through them, which a flat state's mirror symmetry does not contain, feed the nearly
+    singular bending mode), and location solves there failed at floors of 1e-10 and, on finer
+    meshes, 2e-8. Measured effect on the onset (h = 0.2, order 2, z pins on the rim): 4e-6 in mu
+    between floors 1e-8 and 1e-7 (below the location tolerance), 2.4e-4 at 1e-6."""
+    start = time.perf_counter()
+    problem, mesh, pins = graded_plate_solid(p, maxh=maxh, layers=layers, order=order)
+    mesh_seconds = time.perf_counter() - start
+    floor = newton_floor * step * float(np.linalg.norm(load_rate(problem, problem.mu).residual))
+    path, onset = _graded_onset_path(problem, mu_max=mu_max, step=step, tol=tol, progress=progress,
+                                     history=history, newton_options={"atol": floor})
+    row = {"model": "solid3d", "order": order, "maxh": maxh, "p": p, "layers": layers, "elements": mesh.ne,
+           **onset}
+    if path.events:
+        residual = problem.state.CreateVector()
+        problem.residual(problem.state, residual)
+        w = without_rigid_deflection(problem.parts(path.events[0].mode)[0][2], mesh)
+        row.update(**plate_mode_wave(ngs.CF((0.0, 0.0, w)), mesh), pin_reactions=[float(residual[d]) for d in pins])
     row["seconds"] = time.perf_counter() - start - mesh_seconds
     return row
 

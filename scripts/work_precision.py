@@ -7,11 +7,13 @@ reference, against wall time, one row per model and resolution.
     (``scripts/microlens_onset.py``; the Fourier reduction of the 3D solid, so it is the 3D
     reference for the onset from an axisymmetric pre-buckling state), and ``GelShell`` on the
     full cap (``bench_shell.cap_shell_onset``: continuation driver, exact negative count). The
-    3D thin solid is not run: its unknown count at the wall's resolution is printed instead.
+    3D thin cap is not run: its unknown count at the wall's resolution is printed instead.
 (b) Softer-edge graded disk (t/R = 0.01, Nv 1e-2 -> 1e-3, exponent p): critical ``mu`` and wave
     number. Models: the axisymmetric section with the harmonic scan (``graded_plate.build``,
-    ``first_harmonic_instability``) and ``GelShell`` on the full disk
-    (``bench_shell.graded_plate_shell_onset``).
+    ``first_harmonic_instability``), ``GelShell`` on the full disk
+    (``bench_shell.graded_plate_shell_onset``) and the 3D thin solid (``plate_solid``: prism
+    layers under a triangle mesh, ``bench_shell.graded_plate_solid_onset``: the same path,
+    negative count and location as the shell), p = 2 only.
 
 Reference for (a): the axisymmetric solid at h = 0.01, order 3 (d/H = 0.49090, k = 3; 0.49105 at
 h = 0.02); for (b): the section at 100 x 4 cells (``bench_shell.GRADED_REFERENCE``). Errors are
@@ -32,12 +34,17 @@ import graded_plate
 import microlens_onset
 import ngsolve as ngs
 from bench_shell import (APEX, GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_REFERENCE, GRADED_T, H, MICROLENS_T,
-                         cap_section_stiffness, cap_shell_onset, graded_plate_shell_onset)
+                         cap_section_stiffness, cap_shell_onset, graded_plate_shell_onset, graded_plate_solid_onset)
 from geometries import cap_solid
 from ngsgel import FloryRehnerGel
 from ngsgel.harmonic import first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
+# 3D thin-solid rows of (b), p = 2, one prism layer (two curved layers lock, docs/benchmarks.md),
+# cheapest first: ~10, 17, 30, 38, 80, 140 s on one loaded core
+SOLID_ROWS = [dict(maxh=0.2, layers=1, order=2), dict(maxh=0.4, layers=1, order=3),
+              dict(maxh=0.15, layers=1, order=2), dict(maxh=0.3, layers=1, order=3),
+              dict(maxh=0.2, layers=1, order=3), dict(maxh=0.1, layers=1, order=2)]
 CAP_REFERENCE = {"depth_over_H": 0.49090, "k": 3}  # axisymmetric solid, h = 0.01, order 3 (docs/benchmarks.md)
 PLATE_REFERENCE_K = 2
 
@@ -80,6 +87,14 @@ def plate_shell_row(p: float, *, maxh: float, order: int) -> dict:
     return {"case": f"plate p={p:g}", "model": f"shell order {order}", "resolution": f"h={maxh:g} order {order}",
             "ndof": row["ndof"], "seconds": row["seconds"], "value": row.get("mu_critical", math.nan),
             "k": row.get("k"), "stiffness": math.nan}
+
+
+def graded_plate_solid_row(p: float, *, maxh: float, layers: int, order: int) -> dict:
+    row = graded_plate_solid_onset(p, maxh=maxh, layers=layers, order=order)
+    return {"case": f"plate p={p:g}", "model": f"3D thin solid {layers} layer{'s' * (layers > 1)} order {order}",
+            "resolution": f"h={maxh:g} {layers} layer{'s' * (layers > 1)} order {order}", "ndof": row["ndof"],
+            "seconds": row["seconds"], "value": row.get("mu_critical", math.nan), "k": row.get("k"),
+            "stiffness": math.nan}
 
 
 def cap_solid_unknowns(*, layers: int = 2, order: int = 2, maxh: float = 0.05) -> int:
@@ -139,7 +154,8 @@ if __name__ == "__main__":
     run_dir = RunDirectory(args.out, params={"quick": quick, "plate_p": args.plate_p, "load": os.getloadavg()})
     progress = Progress("work_precision")
     # --quick: the graded plate (p = 2) at the coarsest resolution of each model (2-4 min); the
-    # full run adds the cap (the shell cap alone takes > 40 min on 2 loaded cores) and p = 10
+    # full run adds the cap (the shell cap alone takes > 40 min on 2 loaded cores), p = 10 and
+    # the finer 3D thin solids (~5 min)
     plate_ps = [2.0] if quick else args.plate_p
     jobs = []
     if not quick:
@@ -148,7 +164,10 @@ if __name__ == "__main__":
     for p in plate_ps:
         jobs += [(plate_section_row, dict(p=p, maxh=0.04, order=2)), (plate_shell_row, dict(p=p, maxh=0.3, order=3))]
         if not quick:
-            jobs += [(plate_section_row, dict(p=p, maxh=0.02, order=3)), (plate_shell_row, dict(p=p, maxh=0.2, order=3))]
+            jobs += [(plate_section_row, dict(p=p, maxh=0.02, order=3)), (plate_shell_row, dict(p=p, maxh=0.2, order=3)),
+                     (plate_shell_row, dict(p=p, maxh=0.4, order=3))]  # the cheapest shell within 1 % at p = 2
+    # the 3D thin solid (p = 2 only), cheapest first; --quick: its coarsest row (~10 s, 4.5 % error)
+    jobs += [(graded_plate_solid_row, dict(p=2.0, **options)) for options in SOLID_ROWS[:1 if quick else None]]
     rows = []
     with History(run_dir.file("work_precision.csv")) as history:
         for job, options in jobs:
@@ -165,9 +184,12 @@ if __name__ == "__main__":
                  "unknowns, not run")
     for case in sorted({r["case"] for r in rows}):
         shell = time_to(rows, case, "shell")
-        other = time_to(rows, case, "axisymmetric")
-        summary[f"{case}: time to 1% shell / axisymmetric"] = shell / other if math.isfinite(other) else math.nan
-        progress(f"{case}: time to 1 % error: shell {shell:.1f} s, axisymmetric {other:.1f} s, "
-                 f"ratio {shell / other:.2f}")
+        for model in ("axisymmetric", "3D thin solid"):
+            if not any(r["case"] == case and r["model"].startswith(model) for r in rows):
+                continue
+            other = time_to(rows, case, model)
+            ratio = shell / other if math.isfinite(other) and math.isfinite(shell) else math.nan
+            summary[f"{case}: time to 1% shell / {model}"] = ratio
+            progress(f"{case}: time to 1 % error: shell {shell:.1f} s, {model} {other:.1f} s, ratio {ratio:.2f}")
     run_dir.write_json("work_precision.json", summary)
     plot(rows, run_dir.file("work_precision.png"))
