@@ -410,8 +410,10 @@ def graded_plate_solid(p: float, *, maxh: float, layers: int, order: int,
     rim). Every free equilibrium meets them after a rigid motion, and their reactions vanish (see
     the onset row). For the flat state that motion is a z translation and a rotation about z of
     ~0.01 (the centre vertex lies off the axis), no tilt: the z pins lie at one radius, where the
-    flat state's bottom face is level. The layout is not immaterial on coarse meshes (not
-    understood; statically determinate pins should not change an onset): the shell's layout (z
+    flat state's bottom face is level. The layout is not immaterial on coarse meshes
+    (statically determinate pins change no onset when rigid rotations are exact discrete
+    motions; on this curved mesh they are not: the identity is not in the space of the same
+    order, docs/benchmarks.md): the shell's layout (z
     at the vertices nearest r = 0 and (0.25, 0), (0, 0.25), where the modes hardly move; the
     flat state then tilts by the thickness change between those radii) moved the onsets by
     -1.6 % (h = 0.2, order 2), +0.5 % (h = 0.15, order 2), -0.9 % (h = 0.3, order 3) and -0.02 %
