@@ -251,6 +251,16 @@ class ShellCap:
         analysis = self._waves[1]
         return 0.0 if analysis is None else analysis.amplitude / self.case.t
 
+    def second_wave(self) -> float:
+        """The runner-up wave number on the same circle (a broken symmetry of the polygon shows
+        here first: e.g. 4 or 5 next to a dominant 3)."""
+        analysis = self._waves[1]
+        return 0.0 if analysis is None else float(analysis.second)
+
+    def second_amplitude(self) -> float:
+        analysis = self._waves[1]
+        return 0.0 if analysis is None else analysis.spectrum[analysis.second] / self.case.t
+
 
 def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step: float, max_step: float,
                  history=None, vtk=None, progress=None, stage: str = "indentation", checkpoint_file=None,
@@ -263,7 +273,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
     qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "mu": lambda: cap.shell.mu.Get(), "force": cap.force,
-           "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude}
+           "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
+           "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude}
     try:
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
