@@ -35,6 +35,8 @@ from ngsgel.patterns import sample_on_circle, wave_number
 from ngsgel.shell import GelShell, plate_bending_stiffness
 from ngsgel.stability import conjugate_force, load_rate
 
+from microlens import cap_wave_number
+
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 MU0, MU1 = -0.05, -0.049
 H = 0.3
@@ -200,19 +202,9 @@ def cap_shell_pressure_stiffness(*, maxh: float, apex_maxh: float, order: int) -
 
 def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float,
                radii: np.ndarray) -> dict:
-    """Wave number of a critical mode: its normal displacement (sphere normal) sampled on
-    circles of the reference mid-surface at horizontal radii ``radii``; the circle where the
-    non-axisymmetric part is largest decides."""
-    normal = ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r
-    w = ngs.InnerProduct(mode_u, normal)
-    best = None
-    for rho in radii:
-        z = zc + float(np.sqrt(r * r - rho * rho))
-        samples = sample_on_circle(w, mesh, center=(0.0, 0.0, z), radius=float(rho), n=64)
-        analysis = wave_number(samples.values, max_mode=12)
-        if best is None or analysis.amplitude > best[1].amplitude:
-            best = (float(rho), analysis)
-    rho, analysis = best
+    """Wave number of a critical mode of the full cap (``microlens.cap_wave_number``: its normal
+    displacement on circles of the mid-surface, the circle of the largest non-axisymmetric part)."""
+    rho, analysis = cap_wave_number(mode_u, mesh, r=r, zc=zc, half=False, radii=radii)
     return {"k": analysis.k, "purity": analysis.purity, "mode_radius": rho, "k_second": analysis.second}
 
 

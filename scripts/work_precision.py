@@ -91,8 +91,9 @@ def plate_shell_row(p: float, *, maxh: float, order: int) -> dict:
 
 def graded_plate_solid_row(p: float, *, maxh: float, layers: int, order: int) -> dict:
     row = graded_plate_solid_onset(p, maxh=maxh, layers=layers, order=order)
-    return {"case": f"plate p={p:g}", "model": f"3D thin solid {layers} layer{'s' * (layers > 1)} order {order}",
-            "resolution": f"h={maxh:g} {layers} layer{'s' * (layers > 1)} order {order}", "ndof": row["ndof"],
+    through = f"{layers} layer{'s' * (layers > 1)} order {order}"
+    return {"case": f"plate p={p:g}", "model": f"3D thin solid {through}", "resolution": f"h={maxh:g} {through}",
+            "ndof": row["ndof"],
             "seconds": row["seconds"], "value": row.get("mu_critical", math.nan), "k": row.get("k"),
             "stiffness": math.nan}
 
