@@ -1,0 +1,84 @@
+"""``settle``: the stable state a structure lands on after losing stability at a fixed load,
+against the states found by arclength continuation and branch switching on the same models."""
+
+import numpy as np
+import pytest
+
+from ngsgel import follow_path, ramp
+from ngsgel.continuation import StabilityOptions
+from ngsgel.relaxation import settle, settle_past
+
+from test_continuation import arch, column
+
+
+def test_snapping_arch_settles_on_the_far_branch_that_arclength_reaches():
+    prob, load, w = arch()
+    path = follow_path(prob, load, step=0.01, max_step=0.02, target=0.05, qoi={"w": w},
+                       stability=StabilityOptions(eigenvalues=2, tol=1e-4), max_steps=60)
+    assert [e.kind for e in path.events] == ["limit point", "limit point"]
+    far = prob.save_state()
+    limit = path.events[0].parameter
+
+    snapping, snap_load, snap_w = arch()
+    ramp(snapping, snap_load, 0.95 * limit, step=0.01)
+    assert snap_w() < 0.5  # still on the near branch
+    snap_load.Set(0.05)  # beyond the limit load: no equilibrium nearby
+    result = settle(snapping)
+    assert result.negative == 0 and result.lowest_eigenvalue > 0
+    assert np.all(np.diff(result.energies) <= 1e-12 * abs(result.energy_start))
+    assert result.energy_drop > 0
+    scale = np.max(np.abs(far))
+    assert np.max(np.abs(snapping.save_state() - far)) < 1e-8 * scale  # measured 4e-16 absolute
+    assert snap_w() == pytest.approx(path.points[-1].qoi["w"], rel=1e-10)
+    assert snapping.energy() == pytest.approx(path.points[-1].energy, rel=1e-9)
+
+
+def test_arch_past_its_located_limit_point_settles_where_arclength_goes_on():
+    prob, load, w = arch()
+    first = follow_path(prob, load, step=0.01, max_step=0.02, qoi={"w": w},
+                        stability=StabilityOptions(eigenvalues=2, tol=1e-6),
+                        stop=lambda p: p.negative == 1, max_steps=60)
+    limit = first.events[-1]
+    assert limit.kind == "limit point" and (limit.negative_before, limit.negative_after) == (0, 1)
+    result = settle_past(prob, load, limit, overshoot=1e-3, amplitude=1e-3)
+    assert load.Get() == limit.parameter + 1e-3
+    assert result.negative == 0 and result.energy_drop > 0
+
+    reference, reference_load, reference_w = arch()
+    follow_path(reference, reference_load, step=0.01, max_step=0.02, target=limit.parameter + 1e-3, max_steps=80)
+    assert reference_w() > 1.0  # the path first reaches this load again on the far branch
+    assert w() == pytest.approx(reference_w(), rel=1e-9)
+    with pytest.raises(ValueError, match="overshoot"):
+        settle_past(prob, load, limit, overshoot=0.0, amplitude=1e-3)
+
+
+def test_straight_column_past_euler_settles_on_the_buckled_branch():
+    prob, load, tip = column(12, control="displacement")
+    path = follow_path(prob, load, step=0.3, max_step=2.0, target=1.3, qoi={"tip": tip},
+                       stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    buckled = path.points[-1]
+    assert buckled.negative == 0 and abs(buckled.qoi["tip"]) > 0.5
+
+    straight, straight_load, straight_tip = column(12, control="displacement")
+    straight_load.Set(1.3)
+    straight.solve()  # the symmetric state: an exact, unstable equilibrium
+    assert abs(straight_tip()) < 1e-8
+    result = settle(straight)  # round-off is the only perturbation: the flow still leaves it
+    assert result.negative == 0 and result.distance > 0.1
+    assert abs(straight_tip()) == pytest.approx(abs(buckled.qoi["tip"]), rel=1e-8)
+    assert straight.energy() == pytest.approx(buckled.energy, rel=1e-9)
+
+
+def test_a_stable_equilibrium_stays_where_it_is():
+    prob, load, w = arch()
+    ramp(prob, load, 0.02, step=0.01)
+    before = prob.save_state()
+    result = settle(prob)
+    assert result.steps == 0 and result.negative == 0 and result.distance < 1e-12
+    assert np.max(np.abs(prob.save_state() - before)) < 1e-12
+
+
+def test_bad_growth_factor_is_named():
+    prob, _, _ = arch()
+    with pytest.raises(ValueError, match="grow"):
+        settle(prob, grow=1.0)
