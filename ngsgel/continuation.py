@@ -34,7 +34,6 @@ import ngsolve as ngs
 from scipy.sparse.linalg import spsolve
 
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
-from .relaxation import ViscousSystem
 from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
                         spectrum)
 from .stepping import RampError, ramp
@@ -270,18 +269,26 @@ class BorderedCorrector:
 
 
 # ------------------------------------------------------------------------ damping
-class _Damped(ViscousSystem):
+class _Damped:
     """The problem plus pseudo-viscous damping, as a NonlinearSystem that ``ramp`` can drive."""
 
     def __init__(self, problem, parameter: ngs.Parameter, options: Stabilization):
-        super().__init__(problem)
+        self.problem = problem
         self.parameter = parameter
         self.options = options
+        self.free_mask = problem.free_mask
+        self.mass = mass_matrix(problem)
+        if self.mass.nze != problem.tangent(problem.state).nze:
+            raise RuntimeError("the mass matrix and the tangent have different sparsity; cannot add them")
+        self.solver = LinearSolver(problem.space.FreeDofs(), inverse=problem.inverse)
         self.coefficient: float | None = None
+        self.x_n = problem.save_state()
         self.lam_n = parameter.Get()
         self.stored_start = self._stored()
         self.dissipated = 0.0
         self.fraction = 0.0
+        self._dx = problem.state.CreateVector()
+        self._Mdx = problem.state.CreateVector()
 
     def _stored(self) -> float:
         if self.options.stored_energy is not None:
@@ -293,8 +300,41 @@ class _Damped(ViscousSystem):
         finally:
             self.parameter.Set(lam)
 
-    def rate(self) -> float:
+    def _rate_coefficient(self) -> float:
         return (self.coefficient or 0.0) / abs(self.parameter.Get() - self.lam_n)
+
+    @property
+    def state(self):
+        return self.problem.state
+
+    def residual(self, x, out) -> None:
+        self.problem.residual(x, out)
+        self._dx.FV().NumPy()[:] = x.FV().NumPy() - self.x_n
+        self._Mdx.data = self.mass * self._dx
+        out.data += self._rate_coefficient() * self._Mdx
+
+    def tangent(self, x):
+        K = self.problem.tangent(x)
+        K.AsVector().data += self._rate_coefficient() * self.mass.AsVector()
+        return K
+
+    def prescribed(self, out) -> None:
+        self.problem.prescribed(out)
+
+    def admissible(self, x) -> bool:
+        return self.problem.admissible(x)
+
+    def save_state(self) -> np.ndarray:
+        return self.problem.save_state()
+
+    def restore_state(self, saved: np.ndarray) -> None:
+        self.problem.restore_state(saved)
+
+    def _work(self, dx: np.ndarray) -> float:
+        """``dx_f . (M dx)_f``."""
+        self._dx.FV().NumPy()[:] = dx
+        self._Mdx.data = self.mass * self._dx
+        return float(dx[self.free_mask] @ self._Mdx.FV().NumPy()[self.free_mask])
 
     def solve(self, **newton_options) -> NewtonResult:
         guess = self.problem.save_state()
@@ -304,10 +344,10 @@ class _Damped(ViscousSystem):
             h = abs(self.parameter.Get() - self.lam_n)
             stored = abs(self._stored() - self.stored_start)
             if self.coefficient is None:
-                self.coefficient = self.options.initial_fraction * stored * h / self.work(dx)
+                self.coefficient = self.options.initial_fraction * stored * h / self._work(dx)
                 step_dissipation = 0.0
             else:
-                step_dissipation = self.coefficient / h * self.work(dx)
+                step_dissipation = self.coefficient / h * self._work(dx)
             fraction = (self.dissipated + step_dissipation) / stored
             if fraction <= self.options.cap:
                 break

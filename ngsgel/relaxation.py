@@ -1,14 +1,16 @@
 """Where a structure lands after it loses stability at a fixed load: the stable equilibrium
-reached by the implicit gradient flow ``M dx/dtau = -R(x)`` from a (perturbed) unstable state.
+reached by the overdamped flow ``M dx/dtau = -R(x)`` from a (perturbed) unstable state.
 
 Under load (or ``mu``) control a limit point has no equilibrium nearby beyond it, and a
 subcritical bifurcation none on the followed branch: the structure snaps. ``settle`` follows the
-overdamped motion at the fixed load by backward-Euler steps in pseudo-time, each the minimiser
-of ``E(x) + |x - x_n|_M^2 / (2 tau)``, so the energy never rises; ``tau`` grows while the steps
-are easy, and the flow ends at a state whose undamped Newton solve converges with no negative
+overdamped motion at the fixed load by linearly implicit Euler steps in pseudo-time,
+``(K + M / tau) dx = -R`` (one tangent per step; ``K`` the tangent, ``M`` the problem's mass
+matrix), kept only if the energy does not rise, with ``tau`` adapted to how well the quadratic
+model predicted the energy change (a trust region in the metric ``M``). As ``tau`` grows the
+steps become Newton steps, and the flow ends at an equilibrium whose tangent has no negative
 eigenvalue (exact count). Which minimum is reached depends on the start (the caller's
-perturbation, usually along the critical mode): it is the one the overdamped dynamics selects,
-not necessarily the one of lowest energy.
+perturbation, usually along the critical mode): the one the overdamped dynamics selects, not
+necessarily the one of lowest energy.
 """
 
 from __future__ import annotations
@@ -20,73 +22,19 @@ from dataclasses import dataclass, field
 import numpy as np
 import ngsolve as ngs
 
-from .newton import LinearSolver, NewtonError, NewtonResult, newton
-from .stability import free_matrix, mass_matrix, negative_count, spectrum
+from .stability import free_matrix, load_rate, mass_matrix, negative_count, spectrum
 
-__all__ = ["ViscousSystem", "SettleResult", "SettleError", "settle", "settle_past"]
-
-
-class ViscousSystem:
-    """``problem`` plus the viscous force ``rate() * M (x - x_n)`` (``M`` the problem's mass
-    matrix, ``x_n`` the last accepted state; ``rate()`` returns ``viscosity`` unless a subclass
-    says otherwise) as a ``NonlinearSystem`` for ``newton``."""
-
-    def __init__(self, problem, *, viscosity: float = 0.0):
-        self.problem = problem
-        self.free_mask = problem.free_mask
-        self.mass = mass_matrix(problem)
-        if self.mass.nze != problem.tangent(problem.state).nze:
-            raise RuntimeError("the mass matrix and the tangent have different sparsity; cannot add them")
-        self.solver = LinearSolver(problem.space.FreeDofs(), inverse=problem.inverse)
-        self.viscosity = viscosity
-        self.x_n = problem.save_state()
-        self._dx = problem.state.CreateVector()
-        self._Mdx = problem.state.CreateVector()
-
-    def rate(self) -> float:
-        return self.viscosity
-
-    @property
-    def state(self):
-        return self.problem.state
-
-    def residual(self, x, out) -> None:
-        self.problem.residual(x, out)
-        self._dx.FV().NumPy()[:] = x.FV().NumPy() - self.x_n
-        self._Mdx.data = self.mass * self._dx
-        out.data += self.rate() * self._Mdx
-
-    def tangent(self, x):
-        K = self.problem.tangent(x)
-        K.AsVector().data += self.rate() * self.mass.AsVector()
-        return K
-
-    def prescribed(self, out) -> None:
-        self.problem.prescribed(out)
-
-    def admissible(self, x) -> bool:
-        return self.problem.admissible(x)
-
-    def save_state(self) -> np.ndarray:
-        return self.problem.save_state()
-
-    def restore_state(self, saved: np.ndarray) -> None:
-        self.problem.restore_state(saved)
-
-    def work(self, dx: np.ndarray) -> float:
-        """``dx_f . (M dx)_f``."""
-        self._dx.FV().NumPy()[:] = dx
-        self._Mdx.data = self.mass * self._dx
-        return float(dx[self.free_mask] @ self._Mdx.FV().NumPy()[self.free_mask])
+__all__ = ["SettleResult", "SettleError", "settle", "settle_past"]
 
 
 @dataclass
 class SettleResult:
-    """``energy_drop``: energy at the start minus at the end (>= 0 up to round-off);
-    ``distance``: ``|x_end - x_start|_M / sqrt(volume)`` (root-mean-square displacement);
-    ``steps``/``rejected``: pseudo-time steps kept and cut back; ``iterations``: Newton
-    iterations (tangent assemblies) of all solves; ``lowest_eigenvalue``: of the
-    end state; ``energies``: after every kept step (non-increasing)."""
+    """``energy_drop``: energy at the start minus at the end (>= 0 up to round-off; at a new
+    prescribed displacement counted from the first state that meets it); ``distance``:
+    ``|x_end - x_start|_M / sqrt(volume)`` (root-mean-square displacement); ``steps`` /
+    ``rejected``: pseudo-time steps kept and refused (each one tangent assembly and
+    factorisation); ``lowest_eigenvalue``: of the end state; ``energies``: after every kept step
+    (non-increasing); ``residuals``: free residual norm after every kept step."""
 
     energy_start: float
     energy_end: float
@@ -95,8 +43,8 @@ class SettleResult:
     rejected: int
     negative: int
     lowest_eigenvalue: float
-    iterations: int = 0
     energies: list[float] = field(default_factory=list)
+    residuals: list[float] = field(default_factory=list)
 
     @property
     def energy_drop(self) -> float:
@@ -109,122 +57,156 @@ class SettleError(RuntimeError):
         self.result = result
 
 
-def settle(problem, *, max_steps: int = 400, grow: float = 2.0, easy_iterations: int = 6,
-           newton_options: dict | None = None,
+def settle(problem, *, parameter: ngs.Parameter | None = None, tau: float | None = None, rtol: float = 1e-10,
+           atol: float | None = None, xtol: float | None = None, max_steps: int = 300, grow: float = 4.0,
            progress: Callable[[str], None] | None = None) -> SettleResult:
     """Relax ``problem`` at its current load from its current state to a stable equilibrium.
 
-    The first pseudo-time step is ``tau = 0.5 / |omega_min|`` (``omega_min`` the lowest
-    eigenvalue of ``K phi = omega M phi``; ``K + M / tau`` is then positive definite, so the step
-    is well posed) or ``1 / omega_min`` at a stable start; it is multiplied by ``grow`` after a
-    step of at most ``easy_iterations`` Newton iterations and divided by 4 when a step fails or
-    would raise the energy (by more than round-off). Once a step moves the state by less than
-    1e-2 of the distance travelled, the undamped problem is solved from there; a converged solve
-    that does not raise the energy ends the flow if the tangent has no negative eigenvalue
-    (an unstable one, which the flow reaches only from an exactly symmetric start, raises
-    ``SettleError``: perturb the start). ``newton_options`` go to every Newton solve. Raises ``SettleError`` after
-    ``max_steps`` steps or when ``tau`` falls below 1e-12 of its start.
+    A first step meets the prescribed values, if the current state does not (the free dofs
+    follow linearly, cut back until admissible). The first pseudo-time step is ``tau`` or else
+    ``0.5 / |omega_min|`` (``omega_min`` the lowest eigenvalue of ``K phi = omega M phi`` at the
+    start; ``1 / omega_min`` at a stable start). A step is refused (``tau`` / 4) when its state is
+    not admissible or its energy is above the current one by more than round-off; a kept step
+    multiplies ``tau`` by ``grow`` when the energy fell by at least half of what the quadratic
+    model predicted, and divides it by 2 when by less than a tenth. Converged when the free
+    residual is below ``max(atol, rtol * r_max)`` (``r_max`` the largest residual seen) or the
+    next step changes no entry by more than ``xtol`` (length units; default the problem's
+    ``newton_xtol`` if it has one, else 1e-13), at a state whose tangent has
+    no negative eigenvalue; given the load ``parameter`` and no ``atol``, the
+    floor is ``1e-12 |dR/dlambda|`` (a flow that starts next to an equilibrium has a residual
+    near round-off, which no relative tolerance can reduce). An equilibrium with a negative
+    eigenvalue (reached only from an exactly symmetric start) raises ``SettleError``, as do
+    ``max_steps`` steps and ``tau`` below 1e-12 of its start.
     """
     if not grow > 1:
         raise ValueError(f"grow must be > 1, got {grow!r}")
-    newton_options = dict(newton_options or {})
-    system = ViscousSystem(problem)
+    if tau is not None and not tau > 0:
+        raise ValueError(f"tau must be positive, got {tau!r}")
+    with ngs.TaskManager():  # threads the assemblies and factorisations; a no-op when already active
+        return _settle(problem, parameter=parameter, tau=tau, rtol=rtol, atol=atol, xtol=xtol, max_steps=max_steps,
+                       grow=grow, progress=progress)
+
+
+def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progress) -> SettleResult:
+    if atol is None:
+        atol = 0.0 if parameter is None else 1e-12 * float(np.linalg.norm(load_rate(problem, parameter).residual))
+    if xtol is None:
+        xtol = getattr(problem, "newton_xtol", 1e-13)
     free = problem.free_mask
+    freedofs = problem.space.FreeDofs()
     volume = problem.integrate(ngs.CF(1.0))
-    start = problem.save_state()
-    energy = problem.energy()
-    first = spectrum(problem, count=1)
-    omega = float(first.eigenvalues[0])
-    tau0 = 0.5 / abs(omega) if omega < 0 else 1.0 / omega
-    tau = tau0
-    result = SettleResult(energy_start=energy, energy_end=energy, distance=0.0, steps=0, rejected=0,
-                          negative=first.negative, lowest_eigenvalue=omega)
-    round_off = 1e-12 * max(abs(energy), 1.0)
+    mass = mass_matrix(problem)
+    x = problem.state
+    r, dx, rhs, trial = (x.CreateVector() for _ in range(4))
 
-    def rms(dx: np.ndarray) -> float:
-        return math.sqrt(max(system.work(dx), 0.0) / volume)
+    def free_norm(v) -> float:
+        return float(np.linalg.norm(v.FV().NumPy()[free]))
 
-    def counted(solve: Callable[[], NewtonResult]) -> NewtonResult:
-        try:
-            solved = solve()
-        except NewtonError as err:
-            result.iterations += err.result.iterations
-            raise
-        result.iterations += solved.iterations
-        return solved
+    def rms(d: np.ndarray) -> float:
+        rhs.FV().NumPy()[:] = d
+        trial.data = mass * rhs
+        return math.sqrt(max(float(d[free] @ trial.FV().NumPy()[free]), 0.0) / volume)
 
     def report(message: str) -> None:
         if progress is not None:
             progress(message)
 
-    if first.negative == 0:  # a stable start: an undamped solve may already end it
-        try:
-            counted(lambda: problem.solve(**newton_options))
-        except NewtonError:
-            problem.restore_state(start)
+    def damped_inverse(tau: float):
+        K = problem.tangent(x)
+        K.AsVector().data += (1.0 / tau) * mass.AsVector()
+        return K, K.Inverse(freedofs, inverse=problem.inverse)
+
+    first = spectrum(problem, count=1)
+    omega = float(first.eigenvalues[0])
+    tau0 = tau if tau is not None else (0.5 / abs(omega) if omega < 0 else 1.0 / omega)
+    tau = tau0
+
+    target = x.CreateVector()
+    problem.prescribed(target)
+    mismatch = target.FV().NumPy() - x.FV().NumPy()
+    mismatch[free] = 0.0
+    if mismatch.any():  # move the constrained dofs, the free ones follow linearly
+        problem.residual(x, r)
+        K, inverse = damped_inverse(tau)
+        dx.FV().NumPy()[:] = mismatch
+        rhs.data = K * dx
+        rhs.data += r
+        dx.data -= inverse * rhs
+        start_state = problem.save_state()
+        for _ in range(40):
+            problem.restore_state(start_state + dx.FV().NumPy())
+            if problem.admissible(x):
+                break
+            dx.data *= 0.5
         else:
-            if problem.energy() <= energy + round_off:
-                spec = spectrum(problem, count=1)
-                if spec.negative == 0:
-                    result.energy_end, result.negative = problem.energy(), 0
-                    result.lowest_eigenvalue = float(spec.eigenvalues[0])
-                    result.distance = rms(problem.save_state() - start)
-                    return result
-            problem.restore_state(start)
+            raise ValueError("no admissible state meets the prescribed values (J <= 0 along the linear step)")
+        if not np.allclose(problem.save_state()[~free], target.FV().NumPy()[~free], rtol=0, atol=1e-14):
+            raise ValueError("the prescribed values are too far from the current state for one admissible step; "
+                             "move them in smaller increments")
+    start = problem.save_state()
+    energy = problem.energy()
+    round_off = 1e-11 * max(abs(energy), 1e-300)  # the energy is a sum of cancelling terms
+    result = SettleResult(energy_start=energy, energy_end=energy, distance=0.0, steps=0, rejected=0,
+                          negative=first.negative, lowest_eigenvalue=omega)
+    problem.residual(x, r)
+    rnorm = free_norm(r)
+    r_max = rnorm
+
+    def stable_end() -> SettleResult:
+        K = free_matrix(problem.tangent(x), free)
+        result.negative = negative_count(K)
+        if result.negative:
+            raise SettleError(f"the flow ended on an unstable equilibrium ({result.negative} negative eigenvalues): "
+                              "perturb the start (e.g. along its lowest mode)", result)
+        result.energy_end = energy
+        result.lowest_eigenvalue = float(spectrum(problem, count=1, K=K).eigenvalues[0])
+        return result
 
     while True:
+        if rnorm <= max(atol, rtol * r_max):
+            return stable_end()
         if result.steps >= max_steps:
-            raise SettleError(f"no stable equilibrium after {max_steps} pseudo-time steps "
-                              f"(energy drop {energy - result.energy_start:.3e}, tau {tau:.3e})", result)
+            raise SettleError(f"no stable equilibrium after {max_steps} pseudo-time steps (residual {rnorm:.3e}, "
+                              f"energy drop {result.energy_start - energy:.3e}, tau {tau:.3e})", result)
         if tau < 1e-12 * tau0:
             raise SettleError(f"pseudo-time step fell to {tau:.3e} (start {tau0:.3e})", result)
-        x_n = problem.save_state()
-        system.x_n = x_n
-        system.viscosity = 1.0 / tau
-        try:
-            solved = counted(lambda: newton(system, system.solver, **newton_options))
-        except NewtonError:
-            problem.restore_state(x_n)
+        K, inverse = damped_inverse(tau)
+        dx.data = -1.0 * (inverse * r)
+        step = dx.FV().NumPy()[free]
+        if np.max(np.abs(step), initial=0.0) <= xtol:
+            return stable_end()
+        rhs.data = K * dx  # (K + M/tau) dx
+        trial.data = mass * dx
+        mdx = float(step @ trial.FV().NumPy()[free])
+        kdx = float(step @ rhs.FV().NumPy()[free]) - mdx / tau  # dx.K.dx
+        predicted = float(r.FV().NumPy()[free] @ step) + 0.5 * kdx
+        saved = problem.save_state()
+        trial.data = x + dx
+        new_energy = math.inf
+        if problem.admissible(trial):
+            x.data = trial
+            new_energy = problem.energy()
+        if not new_energy <= energy + round_off:
+            problem.restore_state(saved)
             result.rejected += 1
             tau /= 4
             continue
-        new_energy = problem.energy()
-        if new_energy > energy + round_off:
-            problem.restore_state(x_n)
-            result.rejected += 1
-            tau /= 4
-            continue
-        x = problem.save_state()
+        # a change below round-off cannot test the model: trust it (the Newton end of the flow)
+        ratio = (new_energy - energy) / predicted if predicted < -round_off else 1.0
         energy = new_energy
+        problem.residual(x, r)
+        rnorm = free_norm(r)
+        r_max = max(r_max, rnorm)
         result.steps += 1
         result.energies.append(energy)
-        moved = rms(x - x_n)
-        result.distance = rms(x - start)
-        report(f"settle step {result.steps}: {solved.iterations} iterations, tau {tau:.3e}, energy {energy:.12e}, "
-               f"moved {moved:.3e}, distance {result.distance:.3e}")
-        if solved.iterations <= easy_iterations:
+        result.residuals.append(rnorm)
+        result.distance = rms(problem.save_state() - start)
+        report(f"settle step {result.steps}: tau {tau:.3e}, energy {energy:.12e} (model ratio {ratio:.2f}), "
+               f"residual {rnorm:.3e}, distance {result.distance:.3e}")
+        if ratio >= 0.5:
             tau *= grow
-        if moved > 1e-2 * result.distance:
-            continue
-        try:  # the flow has nearly stopped: is this a (stable) equilibrium?
-            counted(lambda: problem.solve(**newton_options))
-        except NewtonError:
-            problem.restore_state(x)
-            continue
-        if problem.energy() > energy + round_off:
-            problem.restore_state(x)
-            continue
-        K = free_matrix(problem.tangent(problem.state), free)
-        negative = negative_count(K)
-        if negative == 0:
-            result.energy_end = problem.energy()
-            result.negative = 0
-            result.lowest_eigenvalue = float(spectrum(problem, count=1, K=K).eigenvalues[0])
-            result.distance = rms(problem.save_state() - start)
-            return result
-        result.negative = negative
-        raise SettleError(f"the flow ended on an unstable equilibrium ({negative} negative eigenvalues): "
-                          "perturb the start (e.g. along its lowest mode)", result)
+        elif ratio < 0.1:
+            tau /= 2
 
 
 def settle_past(problem, parameter: ngs.Parameter, event, *, overshoot: float, amplitude: float,
@@ -251,4 +233,4 @@ def settle_past(problem, parameter: ngs.Parameter, event, *, overshoot: float, a
     if energy == math.inf:
         raise ValueError(f"amplitude {amplitude:g} along the critical mode leaves the admissible set (J <= 0)")
     problem.restore_state(pushed)
-    return settle(problem, **settle_options)
+    return settle(problem, parameter=parameter, **settle_options)

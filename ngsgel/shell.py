@@ -465,13 +465,17 @@ class GelShell(BuiltOnDemand):
         bad = ngs.Integrate(self._indicator, self.mesh, ngs.BND, order=2 * self.order + 2)
         return bool(bad == 0.0)
 
+    @property
+    def newton_xtol(self) -> float:
+        """The residual has a round-off floor from the gel's membrane stresses (~eps t) that the
+        thin walls' bending stiffness (~t^3) turns into displacement noise ~ eps / t^2: a
+        displacement step below 1e-8 t is converged."""
+        return max(1e-13, 1e-8 * self.thickness)
+
     def solve(self, **newton_options) -> NewtonResult:
         """Newton at the current parameter values; raises ``NewtonError`` on failure."""
         self.form
-        # The residual has a round-off floor from the gel's membrane stresses (~eps t) that the
-        # thin walls' bending stiffness (~t^3) turns into displacement noise ~ eps / t^2: a
-        # displacement step below 1e-8 t is converged.
-        newton_options.setdefault("xtol", max(1e-13, 1e-8 * self.thickness))
+        newton_options.setdefault("xtol", self.newton_xtol)
         with ngs.TaskManager():
             return newton(self, self._solver, **newton_options)
 

@@ -11,8 +11,15 @@ sampled on the circle ``r = 0.97 R`` and its Fourier content recorded: the domin
 its amplitude, the runner-up, the purity and the amplitudes of ``k = 1 .. 12``. Each event's
 critical mode gets its wave number (``bench_shell.plate_mode_wave``).
 
+``--watch-after-first-switch --through-snaps`` (with ``--half``: the k = 2 onset of the full disk
+is a double eigenvalue, along which a one-mode switch does not converge) follows the buckled
+branch until it loses stability, lets the disk snap there (``ngsgel.relaxation.settle_past``: the
+overdamped flow at ``mu`` just beyond the critical value, from the critical state pushed along
+its mode, to a stable equilibrium) and follows the branch it lands on, as often as needed to
+reach ``mu = 0``: the pattern the plate ends with.
+
 Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summary.json``,
-``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
+``snaps.json``, ``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
 end).
 
     python scripts/graded_plate_shell.py --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
@@ -29,7 +36,8 @@ import ngsolve as ngs
 
 from bench_shell import disk_circle_values, graded_plate_shell, plate_mode_wave
 from ngsgel import NewtonError, follow_path, ramp
-from ngsgel.continuation import ContinuationError, Stabilization, StabilityOptions
+from ngsgel.continuation import ContinuationError, StabilityOptions
+from ngsgel.relaxation import settle_past
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import wave_number
 
@@ -77,25 +85,31 @@ class RimWaves:
 
 def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
         max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = None,
-        maxit: int | None = None, half: bool = False, switch_all: bool = True, stabilized_step: float | None = None,
-        quick: bool = False) -> dict:
+        maxit: int | None = None, half: bool = False, switch_all: bool = True, through_snaps: bool = False,
+        snap_overshoot: float = 1e-3, quick: bool = False) -> dict:
     """``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
     below the onset; the driver's first state then shows no negative eigenvalue, which is checked).
     ``maxit``: Newton iterations per solve (the driver's default when None). A Newton failure of
     the driver (e.g. in the branch switch) writes its residual history to ``newton_failure.json``
     before it propagates. ``half``: the half disk with mirror symmetry about y = 0
     (``bench_shell.graded_plate_shell``): the k = 2 eigenvalue is simple there. ``switch_all``
-    False: two legs, the first switches onto the buckled branch and stops once the rim wave
-    exceeds 0.1 t, the second follows that branch to ``mu = 0`` locating (not switching at) every
-    later change of the negative count, with its critical mode's wave number (column ``leg``).
-    ``stabilized_step`` (with ``switch_all`` False): the second leg is a natural-parameter run in
-    steps of ``mu`` of that size with the driver's pseudo-viscous ``Stabilization`` (crosses a
-    snap; stability changes are recorded, not located)."""
+    False: legs; the first switches onto the buckled branch and stops once the rim wave exceeds
+    0.1 t, the next follows that branch to ``mu = 0`` locating (not switching at) every later
+    change of the negative count, with its critical mode's wave number (column ``leg``).
+    ``through_snaps`` (with ``switch_all`` False): a leg also ends where the followed branch
+    loses stability; the disk then snaps at ``mu`` = critical + ``snap_overshoot``
+    (``ngsgel.relaxation.settle_past``: pushed 0.1 t along the critical mode, relaxed by the
+    overdamped flow to a stable state, reported in ``events.json`` as "snap") and the next leg
+    follows the branch it lands on."""
+    if through_snaps and switch_all:
+        raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
+    if not snap_overshoot > 0:
+        raise ValueError(f"snap_overshoot must be positive (mu rises), got {snap_overshoot!r}")
     if quick:
         maxh, max_steps, realcompile = max(maxh, 0.3), min(max_steps, 12), False
     params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
-                  switch_all=switch_all, stabilized_step=stabilized_step, quick=quick,
+                  switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot, quick=quick,
                   rim_radius=RIM_RADIUS)
     run_dir = RunDirectory(out, params=params)
     progress = Progress("graded_plate_shell")
@@ -104,24 +118,23 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     rim = RimWaves(shell, mesh, half=half)
     if mu_start is not None:
         ramp(shell, shell.mu, mu_start, step=0.25)
-    legs = [True] if switch_all else [True, False]  # switch onto the buckled branch, then (maybe) only watch
-    error, points, all_events = None, [], []
-    leg_number = [0]
-    qoi = {"leg": lambda: leg_number[0], **rim.qoi()}
+    error, points, all_events, snaps = None, [], [], []
+    leg = 0
+    qoi = {"leg": lambda: leg, **rim.qoi()}
     vtk = VTKSeries(mesh, shell.fields(), run_dir.file("shell"))
     with History(run_dir.file("path.csv")) as history:
-        for leg, switch in enumerate(legs):
-            leg_number[0] = leg
+        while True:
+            switch = switch_all or leg == 0
             stability = StabilityOptions(eigenvalues=eigenvalues, switch=switch, amplitude=0.1, length=t, tol=1e-4)
-            # the first leg of a two-leg run ends once the disk has left the flat state (rim wave > 0.1 t)
-            stop = None if (switch_all or not switch) else (lambda pt: pt.qoi["rim_amplitude"] > 0.1 * t)
+            if switch_all:
+                stop = None
+            elif leg == 0:  # ends once the disk has left the flat state (rim wave > 0.1 t)
+                stop = lambda pt: pt.qoi["rim_amplitude"] > 0.1 * t
+            else:
+                stop = (lambda pt: bool(pt.negative)) if through_snaps else None
             try:
-                stabilized = leg == 1 and stabilized_step is not None
-                path = follow_path(shell, shell.mu, method="natural" if stabilized else "arclength",
-                                   step=stabilized_step if stabilized else step,
-                                   max_step=stabilized_step if stabilized else step, target=0.0,
-                                   stabilization=Stabilization() if stabilized else None,
-                                   stability=stability, qoi=qoi, history=history, max_steps=max_steps, stop=stop,
+                path = follow_path(shell, shell.mu, step=step, max_step=step, target=0.0, stability=stability,
+                                   qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
                                    vtk=vtk, progress=progress,
                                    newton_options=None if maxit is None else {"maxit": maxit})
             except ContinuationError as exc:  # the path so far is kept and reported
@@ -134,8 +147,20 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                 raise
             points += path.points
             all_events += [(leg, e) for e in path.events]
-            if error is not None or path.stop_reason != "criterion":
+            if error is not None or path.stop_reason != "criterion" or switch_all:
                 break
+            if leg > 0:  # through_snaps: the branch lost stability at the last located event
+                loss = path.events[-1]
+                clock = time.perf_counter()
+                settled = settle_past(shell, shell.mu, loss, overshoot=snap_overshoot, amplitude=0.1 * t,
+                                      progress=progress)
+                snaps.append({"leg": leg, "kind": "snap", "from_mu": loss.parameter, "mu": shell.mu.Get(),
+                              "energy_drop": settled.energy_drop, "distance": settled.distance,
+                              "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
+                              "lowest_eigenvalue": settled.lowest_eigenvalue,
+                              "rim_after": dict(rim.values()), "wall_s": time.perf_counter() - clock})
+                run_dir.write_json("snaps.json", snaps)
+            leg += 1
     if points[0].negative:
         raise RuntimeError(f"the start at mu = {points[0].parameter} is already unstable "
                            f"({points[0].negative} negative eigenvalues): lower mu_start")
@@ -146,6 +171,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
         if e.mode is not None:
             row.update({f"mode_{k}": v for k, v in plate_mode_wave(e.mode.components[0], mesh, half=half).items()})
         events.append(row)
+    events += snaps
     run_dir.write_json("events.json", events)
     negatives = [pt.negative for pt in points]
     summary = {"ndof": shell.space.ndof, "steps": len(points), "stop_reason": path.stop_reason,
@@ -200,14 +226,16 @@ def main(argv=None) -> dict:
     parser.add_argument("--half", action="store_true", help="half disk, mirror symmetry about y = 0")
     parser.add_argument("--watch-after-first-switch", action="store_true",
                         help="switch onto the first buckled branch only, then follow it locating later bifurcations")
-    parser.add_argument("--stabilized-step", type=float,
-                        help="with --watch-after-first-switch: follow the buckled branch by natural steps of mu "
-                             "of this size with pseudo-viscous stabilisation (across snaps)")
+    parser.add_argument("--through-snaps", action="store_true",
+                        help="with --watch-after-first-switch: where the followed branch loses stability, snap "
+                             "(overdamped relaxation to a stable state) and follow the branch it lands on")
+    parser.add_argument("--snap-overshoot", type=float, default=1e-3, help="mu beyond the critical value to snap at")
     args = parser.parse_args(argv)
     summary = run(args.out, p=args.p, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
                   max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
                   maxit=args.maxit, half=args.half,
-                  switch_all=not args.watch_after_first_switch, stabilized_step=args.stabilized_step,
+                  switch_all=not args.watch_after_first_switch, through_snaps=args.through_snaps,
+                  snap_overshoot=args.snap_overshoot,
                   quick=quick_run(args))
     print(json.dumps({k: v for k, v in summary.items() if k != "events"}, default=str, indent=1))
     for e in summary["events"]:

@@ -59,10 +59,11 @@ import ngsolve as ngs  # noqa: E402
 
 from geometries import cap_midsurface, cap_section  # noqa: E402
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path  # noqa: E402
-from ngsgel.continuation import Checkpoint, ContinuationError, PathResult, StabilityOptions  # noqa: E402
+from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions  # noqa: E402
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
 from ngsgel.patterns import WaveAnalysis, load_drops, wave_number  # noqa: E402
+from ngsgel.relaxation import settle  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stability import conjugate_force  # noqa: E402
 
@@ -276,7 +277,9 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
            "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
            "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude}
     try:
+        # a step cut to 1/16 of the first has met a state Newton cannot reach: stop there (stalled)
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
+                           min_step=step / 16,
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
                            qoi=qoi, history=history, vtk=vtk, progress=progress,
                            checkpoint_file=checkpoint_file, restart=restart,
@@ -491,6 +494,47 @@ def vertex_sequence(path: PathResult) -> list[dict]:
     return changes
 
 
+def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_step: float, snaps: int,
+                         tau: float | None, history, vtk, progress, run_dir: RunDirectory,
+                         restart: Checkpoint | None = None) -> PathResult:
+    """``follow_shell`` to ``depth_end``; where it stalls (no equilibrium found next to the last
+    one: a snap under displacement control, or a step Newton cannot make next to a critical
+    state) the cap is moved to the depth one ``step`` further and relaxed there by the overdamped
+    flow (``ngsgel.relaxation.settle``) to a stable state, recorded as a "snap" event (force and
+    vertex count before and after, energy drop, cost), and the path goes on from it; at most
+    ``snaps`` times. The legs are joined into one path; ``snaps.json`` in the run folder."""
+    legs, records = [], []
+    while True:
+        path = follow_shell(cap, cap.depth, depth_end, step=step, max_step=max_step, history=history, vtk=vtk,
+                            progress=progress, checkpoint_file=run_dir.file("checkpoint.npz"),
+                            restart=restart if not legs else None)
+        legs.append(path)
+        if not path.stop_reason.startswith("stalled") or len(records) >= snaps:
+            break
+        last = path.points[-1]
+        cap.shell.restore_state(path.checkpoint.state)
+        depth_from = path.checkpoint.parameter
+        cap.depth.Set(min(depth_from + step, depth_end))
+        clock = time.perf_counter()
+        settled = settle(cap.shell, parameter=cap.depth, tau=tau, progress=progress)
+        record = {"after_step": last.step, "negative_before": last.negative, "energy": settled.energy_end, "from_d_over_H": depth_from / cap.case.H, "d_over_H": cap.depth.Get() / cap.case.H,
+                  "force_before": last.qoi["force"], "k_before": last.qoi["k"], "force_after": cap.force(),
+                  "k_after": cap.update_waves(), "energy_drop": settled.energy_drop, "distance": settled.distance,
+                  "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
+                  "lowest_eigenvalue": settled.lowest_eigenvalue,
+                  "wall_s": time.perf_counter() - clock, "stalled": path.stop_reason}
+        records.append(record)
+        run_dir.write_json("snaps.json", records)
+        if progress is not None:
+            progress(f"snap to d/H {record['d_over_H']:.4f}: force {record['force_before']:.5g} -> "
+                     f"{record['force_after']:.5g}, k {record['k_before']:.0f} -> {record['k_after']:.0f}")
+    points = [pt for leg in legs for pt in leg.points]
+    events = [ev for leg in legs for ev in leg.events]
+    events += [Event(kind="snap", step=r["after_step"], parameter=r["d_over_H"] * cap.case.H,
+                     negative_before=r["negative_before"], negative_after=0, energy=r["energy"], details=r) for r in records]
+    return PathResult(points, events, legs[-1].stop_reason, legs[-1].checkpoint)
+
+
 def shell_summary(case: Indentation, cap: ShellCap, stages: list[tuple[str, PathResult]]) -> dict:
     summary = {"ndof": cap.shell.space.ndof, "elements": cap.mesh.GetNE(ngs.BND), "t": case.t, "r": case.r}
     for name, path in stages:
@@ -521,9 +565,11 @@ def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> 
 
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
               mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
-              progress=None) -> dict:
+              snaps: int = 3, snap_tau: float | None = None, progress=None) -> dict:
     """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
     indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth.
+    Where the path stalls, the cap snaps at the next depth (at most ``snaps`` times, first
+    pseudo-time step ``snap_tau``; see ``indent_through_snaps``).
     Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
     ``restart`` (such a file of the indentation) goes on from it."""
     if (mu_at is None) != (mu_to is None):
@@ -537,15 +583,15 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
                                         "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
-                                        "mu_at": mu_at, "mu_to": mu_to, "restart": restart})
+                                        "mu_at": mu_at, "mu_to": mu_to, "restart": restart, "snaps": snaps,
+                                        "snap_tau": snap_tau})
     cap = ShellCap(case, res)
     vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
     with History(run_dir.file("path.csv")) as history:
         depth_end = (case.depth if mu_at is None else mu_at) * case.H
-        stages = [("indentation", follow_shell(cap, cap.depth, depth_end, step=step * case.H,
-                                               max_step=max_step * case.H, history=history, vtk=vtk,
-                                               progress=progress, checkpoint_file=run_dir.file("checkpoint.npz"),
-                                               restart=checkpoint))]
+        stages = [("indentation", indent_through_snaps(cap, depth_end, step=step * case.H, max_step=max_step * case.H,
+                                                       snaps=snaps, tau=snap_tau, history=history, vtk=vtk,
+                                                       progress=progress, run_dir=run_dir, restart=checkpoint))]
         if mu_at is not None and stages[0][1].stop_reason == "target":
             mu_step = abs(mu_to - case.mu) / mu_steps
             stages.append(("mu change", follow_shell(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
@@ -576,6 +622,10 @@ def main(argv=None) -> dict:
     parser.add_argument("--mu-to", type=float, default=None, help="... to this value")
     parser.add_argument("--restart", default=None,
                         help="shell: go on from this checkpoint.npz of an earlier run (same case and mesh)")
+    parser.add_argument("--snaps", type=int, default=3,
+                        help="shell: where the path stalls, relax to a stable state one step deeper, at most this often")
+    parser.add_argument("--snap-tau", type=float, default=None,
+                        help="shell: first pseudo-time step of that relaxation (default 1 / lowest eigenvalue)")
     parser.add_argument("--layers", type=int, default=2)
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
@@ -613,8 +663,8 @@ def main_shell(args, quick: bool) -> dict:
                           order=2 if quick else args.order, apex=args.apex, half=not args.full,
                           realcompile=not quick)
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
-                        mu_at=args.mu_at, mu_to=args.mu_to, restart=args.restart,
-                        progress=Progress("microlens shell"))
+                        mu_at=args.mu_at, mu_to=args.mu_to, restart=args.restart, snaps=args.snaps,
+                        snap_tau=args.snap_tau, progress=Progress("microlens shell"))
     for name in ("indentation", "mu change"):
         if name in summary:
             stage = summary[name]
