@@ -18,8 +18,9 @@ overdamped flow at ``mu`` just beyond the critical value, from the critical stat
 its mode, to a stable equilibrium) and follows the branch it lands on, as often as needed to
 reach ``mu = 0``: the pattern the plate ends with.
 
-Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summary.json``,
-``snaps.json``, ``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
+Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summary.json``
+(with the penetration depth of the final dominant wave, ``pattern_depth``), ``snaps.json``,
+``state_end.npz``, ``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
 end).
 
     python scripts/graded_plate_shell.py --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
@@ -39,7 +40,7 @@ from ngsgel import NewtonError, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
 from ngsgel.relaxation import settle_past
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
-from ngsgel.patterns import wave_number
+from ngsgel.patterns import penetration_depth, wave_number
 
 RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
 RIM_SAMPLES = 128
@@ -81,6 +82,18 @@ class RimWaves:
     def _names(self):
         yield from ("rim_k", "rim_amplitude", "rim_purity", "rim_k_second", "rim_mean_w", "rim_max_abs_w")
         yield from (f"rim_a{m}" for m in range(1, self.max_mode + 1))
+
+
+def pattern_depth(shell, mesh: ngs.Mesh, k: int, *, half: bool, radii: np.ndarray | None = None) -> dict:
+    """Penetration depth of the wave ``k`` of the current deflection: its Fourier amplitude on
+    circles ``r = 0.05 .. RIM_RADIUS`` and the distance from the rim circle inward to where it
+    falls to 5 % (the thesis's ``l_p``, ``ngsgel.patterns.penetration_depth``) and to half."""
+    radii = np.linspace(0.05, RIM_RADIUS, 24) if radii is None else radii
+    amplitude = np.array([wave_number(disk_circle_values(shell.displacement[2], mesh, radius=float(r), n=RIM_SAMPLES,
+                                                         half=half), max_mode=max(k, RIM_MODES)).spectrum[k]
+                          for r in radii])
+    return {"k": k, "l_5%": penetration_depth(amplitude, radii), "l_half": penetration_depth(amplitude, radii, fraction=0.5),
+            "radii": radii.tolist(), "amplitude": amplitude.tolist()}
 
 
 def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
@@ -174,10 +187,14 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     events += snaps
     run_dir.write_json("events.json", events)
     negatives = [pt.negative for pt in points]
+    np.savez(run_dir.file("state_end.npz"), state=shell.save_state(), mu=shell.mu.Get())
+    rim_end = rim.values()
     summary = {"ndof": shell.space.ndof, "steps": len(points), "stop_reason": path.stop_reason,
                "error": error, "mu_end": points[-1].parameter, "negative_end": negatives[-1],
                "max_negative": max(n for n in negatives if n is not None), "events": events,
-               "rim_end": rim.values(), "pin_reactions": [shell.reaction(pt, "z") for pt in pins],
+               "rim_end": rim_end,
+               "penetration_depth": pattern_depth(shell, mesh, int(rim_end["rim_k"]), half=half) if rim_end["rim_k"] else None,
+               "pin_reactions": [shell.reaction(pt, "z") for pt in pins],
                "wall_s": time.perf_counter() - start}
     run_dir.write_json("summary.json", summary)
     plot_shape(shell, mesh, run_dir.file("shape_end.png"),
