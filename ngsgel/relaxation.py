@@ -24,7 +24,7 @@ import ngsolve as ngs
 
 from .stability import free_matrix, load_rate, mass_matrix, negative_count, spectrum
 
-__all__ = ["SettleResult", "SettleError", "settle", "settle_past"]
+__all__ = ["SettleResult", "SettleError", "settle", "settle_past", "settle_after"]
 
 
 @dataclass
@@ -233,4 +233,21 @@ def settle_past(problem, parameter: ngs.Parameter, event, *, overshoot: float, a
     if energy == math.inf:
         raise ValueError(f"amplitude {amplitude:g} along the critical mode leaves the admissible set (J <= 0)")
     problem.restore_state(pushed)
+    return settle(problem, parameter=parameter, **settle_options)
+
+
+def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, amplitude: float,
+                 **settle_options) -> SettleResult:
+    """Settle where the path ``path`` (an ``ngsgel.continuation.PathResult``) could not go on:
+    past its last event if that is a located loss of stability (``settle_past``), otherwise (a
+    path that stalled: no equilibrium next to its last state, e.g. beyond a limit point under load
+    control) from its last converged state at the load ``overshoot`` further."""
+    last = path.events[-1] if path.events else None
+    if (last is not None and last.mode is not None and last.negative_after > last.negative_before
+            and last.step == path.points[-1].step):
+        return settle_past(problem, parameter, last, overshoot=overshoot, amplitude=amplitude, **settle_options)
+    if overshoot == 0:
+        raise ValueError("overshoot must be non-zero")
+    problem.restore_state(path.checkpoint.state)
+    parameter.Set(path.checkpoint.parameter + overshoot)
     return settle(problem, parameter=parameter, **settle_options)

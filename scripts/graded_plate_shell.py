@@ -38,7 +38,7 @@ import ngsolve as ngs
 from bench_shell import disk_circle_values, graded_plate_shell, plate_mode_wave
 from ngsgel import NewtonError, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
-from ngsgel.relaxation import settle_past
+from ngsgel.relaxation import settle_after
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import penetration_depth, wave_number
 
@@ -109,11 +109,12 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     False: legs; the first switches onto the buckled branch and stops once the rim wave exceeds
     0.1 t, the next follows that branch to ``mu = 0`` locating (not switching at) every later
     change of the negative count, with its critical mode's wave number (column ``leg``).
-    ``through_snaps`` (with ``switch_all`` False): a leg also ends where the followed branch
-    loses stability; the disk then snaps at ``mu`` = critical + ``snap_overshoot``
-    (``ngsgel.relaxation.settle_past``: pushed 0.1 t along the critical mode, relaxed by the
-    overdamped flow to a stable state, reported in ``events.json`` as "snap") and the next leg
-    follows the branch it lands on."""
+    ``through_snaps`` (with ``switch_all`` False): the legs after the first follow ``mu`` in
+    natural steps (``step / 5`` growing to ``step``) and also end where the followed branch loses
+    stability or the steps stall (below ``step / 160``: a fold); the disk then snaps at ``mu`` =
+    critical (or last) + ``snap_overshoot`` (``ngsgel.relaxation.settle_after``: pushed 0.1 t
+    along the critical mode, relaxed by the overdamped flow to a stable state, reported in
+    ``events.json`` as "snap") and the next leg follows the branch it lands on."""
     if through_snaps and switch_all:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
     if not snap_overshoot > 0:
@@ -145,13 +146,20 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                 stop = lambda pt: pt.qoi["rim_amplitude"] > 0.1 * t
             else:
                 stop = (lambda pt: bool(pt.negative)) if through_snaps else None
+            # past the first switch a snapping run steps mu itself: the arclength corrector failed to
+            # locate the saddle's loss of stability at h = 0.15 (docs/graded.md)
+            natural = through_snaps and leg > 0
             try:
-                path = follow_path(shell, shell.mu, step=step, max_step=step, target=0.0, stability=stability,
+                path = follow_path(shell, shell.mu, method="natural" if natural else "arclength",
+                                   step=step / 5 if natural else step, max_step=step,
+                                   min_step=step / 160 if natural else None, target=0.0, stability=stability,
                                    qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
                                    vtk=vtk, progress=progress,
                                    newton_options=None if maxit is None else {"maxit": maxit})
-            except ContinuationError as exc:  # the path so far is kept and reported
-                path, error = exc.result, str(exc)
+            except ContinuationError as exc:  # the path so far is kept: reported, or (snapping) a stall
+                path = exc.result
+                if not natural:
+                    error = str(exc)
             except NewtonError as exc:  # recorded for the report, then raised
                 run_dir.write_json("newton_failure.json", {"message": str(exc), "residuals": exc.result.residuals,
                                                            "iterations": exc.result.iterations,
@@ -160,17 +168,18 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                 raise
             points += path.points
             all_events += [(leg, e) for e in path.events]
-            if error is not None or path.stop_reason != "criterion" or switch_all:
+            if (error is not None or path.stop_reason not in ("criterion", "min_step") or switch_all
+                    or len(points) >= max_steps):
                 break
-            if leg > 0:  # through_snaps: the branch lost stability at the last located event
-                loss = path.events[-1]
+            if natural:  # the branch lost stability (located event) or the steps stalled (a fold)
                 clock = time.perf_counter()
-                settled = settle_past(shell, shell.mu, loss, overshoot=snap_overshoot, amplitude=0.1 * t,
-                                      progress=progress)
-                snaps.append({"leg": leg, "kind": "snap", "from_mu": loss.parameter, "mu": shell.mu.Get(),
-                              "energy_drop": settled.energy_drop, "distance": settled.distance,
-                              "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
-                              "lowest_eigenvalue": settled.lowest_eigenvalue,
+                settled = settle_after(shell, shell.mu, path, overshoot=snap_overshoot, amplitude=0.1 * t,
+                                       progress=progress)
+                snaps.append({"leg": leg, "kind": "snap", "stop_reason": path.stop_reason,
+                              "from_mu": shell.mu.Get() - snap_overshoot,
+                              "mu": shell.mu.Get(), "energy_drop": settled.energy_drop,
+                              "distance": settled.distance, "pseudo_time_steps": settled.steps,
+                              "rejected": settled.rejected, "lowest_eigenvalue": settled.lowest_eigenvalue,
                               "rim_after": dict(rim.values()), "wall_s": time.perf_counter() - clock})
                 run_dir.write_json("snaps.json", snaps)
             leg += 1

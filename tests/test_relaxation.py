@@ -6,7 +6,8 @@ import pytest
 
 from ngsgel import follow_path, ramp
 from ngsgel.continuation import StabilityOptions
-from ngsgel.relaxation import SettleError, settle, settle_past
+from ngsgel.continuation import ContinuationError
+from ngsgel.relaxation import SettleError, settle, settle_after, settle_past
 from ngsgel.stability import spectrum
 
 from test_continuation import arch, column
@@ -51,6 +52,21 @@ def test_arch_past_its_located_limit_point_settles_where_arclength_goes_on():
     assert w() == pytest.approx(reference_w(), rel=1e-9)
     with pytest.raises(ValueError, match="overshoot"):
         settle_past(prob, load, limit, overshoot=0.0, amplitude=1e-3)
+
+
+def test_natural_steps_that_stall_at_the_limit_settle_on_the_far_branch():
+    prob, load, w = arch()
+    with pytest.raises(ContinuationError) as stalled:
+        follow_path(prob, load, method="natural", step=0.005, min_step=1e-4, target=0.05,
+                    stability=StabilityOptions(eigenvalues=1, tol=1e-5))
+    path = stalled.value.result
+    assert path.stop_reason == "min_step" and all(p.negative == 0 for p in path.points)
+    result = settle_after(prob, load, path, overshoot=0.05 - path.checkpoint.parameter, amplitude=1e-3)
+    assert load.Get() == pytest.approx(0.05) and result.negative == 0
+
+    reference, reference_load, reference_w = arch()
+    follow_path(reference, reference_load, step=0.01, max_step=0.02, target=0.05, max_steps=80)
+    assert w() == pytest.approx(reference_w(), rel=1e-9)
 
 
 def test_straight_column_past_euler_settles_on_the_buckled_branch():
