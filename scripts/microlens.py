@@ -63,7 +63,7 @@ from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
 from ngsgel.patterns import WaveAnalysis, load_drops, wave_number  # noqa: E402
-from ngsgel.relaxation import settle  # noqa: E402
+from ngsgel.relaxation import settle_after  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stability import conjugate_force  # noqa: E402
 
@@ -500,7 +500,7 @@ def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_st
     """``follow_shell`` to ``depth_end``; where it stalls (no equilibrium found next to the last
     one: a snap under displacement control, or a step Newton cannot make next to a critical
     state) the cap is moved to the depth one ``step`` further and relaxed there by the overdamped
-    flow (``ngsgel.relaxation.settle``) to a stable state, recorded as a "snap" event (force and
+    flow (``ngsgel.relaxation.settle_after``) to a stable state, recorded as a "snap" event (force and
     vertex count before and after, energy drop, cost), and the path goes on from it; at most
     ``snaps`` times. The legs are joined into one path; ``snaps.json`` in the run folder."""
     legs, records = [], []
@@ -512,12 +512,12 @@ def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_st
         if not path.stop_reason.startswith("stalled") or len(records) >= snaps:
             break
         last = path.points[-1]
-        cap.shell.restore_state(path.checkpoint.state)
         depth_from = path.checkpoint.parameter
-        cap.depth.Set(min(depth_from + step, depth_end))
         clock = time.perf_counter()
-        settled = settle(cap.shell, parameter=cap.depth, tau=tau, progress=progress)
-        record = {"after_step": last.step, "negative_before": last.negative, "energy": settled.energy_end, "from_d_over_H": depth_from / cap.case.H, "d_over_H": cap.depth.Get() / cap.case.H,
+        settled = settle_after(cap.shell, cap.depth, path, overshoot=min(step, depth_end - depth_from),
+                               amplitude=0.1 * cap.case.t, tau=tau, progress=progress)
+        record = {"after_step": last.step, "negative_before": last.negative, "energy": settled.energy_end,
+                  "from_d_over_H": depth_from / cap.case.H, "d_over_H": cap.depth.Get() / cap.case.H,
                   "force_before": last.qoi["force"], "k_before": last.qoi["k"], "force_after": cap.force(),
                   "k_after": cap.update_waves(), "energy_drop": settled.energy_drop, "distance": settled.distance,
                   "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
@@ -531,7 +531,8 @@ def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_st
     points = [pt for leg in legs for pt in leg.points]
     events = [ev for leg in legs for ev in leg.events]
     events += [Event(kind="snap", step=r["after_step"], parameter=r["d_over_H"] * cap.case.H,
-                     negative_before=r["negative_before"], negative_after=0, energy=r["energy"], details=r) for r in records]
+                     negative_before=r["negative_before"], negative_after=0, energy=r["energy"], details=r)
+               for r in records]
     return PathResult(points, events, legs[-1].stop_reason, legs[-1].checkpoint)
 
 
