@@ -1,0 +1,27 @@
+"""The graded disk shell script's pattern measures on a synthetic deflection (no solve)."""
+
+import math
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+
+import bench_shell
+import graded_plate_shell
+
+
+@pytest.mark.parametrize("half", [True, False])
+def test_pattern_depth_of_an_exponentially_decaying_edge_wave(half):
+    shell, mesh, _ = bench_shell.graded_plate_shell(10.0, maxh=0.15, order=3, half=half)
+    k, decay = 5, 0.12  # w = exp(-(1 - r) / decay) cos(k theta): l_5% = decay ln 20, l_1/2 = decay ln 2
+    r = ngs.sqrt(ngs.x**2 + ngs.y**2)
+    theta = ngs.atan2(ngs.y, ngs.x)
+    shell.displacement.Set(ngs.CF((0, 0, ngs.exp(-(1 - r) / decay) * ngs.cos(k * theta))),
+                           definedon=mesh.Boundaries(".*"))
+    depth = graded_plate_shell.pattern_depth(shell, mesh, k, half=half)
+    assert depth["k"] == k
+    # measured from the sampling circle r = 0.97 inward; linear interpolation between 24 radii
+    assert depth["l_5%"] == pytest.approx(decay * math.log(20), rel=0.03)
+    assert depth["l_half"] == pytest.approx(decay * math.log(2), rel=0.03)
+    rim = np.array(depth["amplitude"])[-1]
+    assert rim == pytest.approx(math.exp(-0.03 / decay), rel=1e-3)
