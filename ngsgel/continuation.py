@@ -103,7 +103,7 @@ class PathPoint:
 @dataclass
 class Event:
     """``kind``: "limit point", "bifurcation", "branch switch" or "stability change" (not
-    located). ``parameter_error`` bounds the error of ``parameter`` (spread of the load parameter
+    located: a stabilised run, or a location whose solves failed, ``details["locate_failed"]``). ``parameter_error`` bounds the error of ``parameter`` (spread of the load parameter
     over the final bracket); ``load_projection`` is the classification measure."""
 
     kind: str
@@ -455,13 +455,21 @@ class _Driver:
         if a.spectrum is None or b.spectrum is None or a.spectrum.negative == b.spectrum.negative:
             return [], False
         before, after = a.spectrum.negative, b.spectrum.negative
-        if not self.locate_events:
+
+        def unlocated(details: dict) -> tuple[list, bool]:
+            self._goto(b)
             self.events.append(Event(kind="stability change", step=self.steps, parameter=b.parameter,
                                      negative_before=before, negative_after=after,
-                                     energy=self.problem.energy()))
+                                     energy=self.problem.energy(), details=details))
             self._pending = ("stability change",)
             return [], False
-        critical, error = self._locate(a, b, segment)
+
+        if not self.locate_events:
+            return unlocated({})
+        try:
+            critical, error = self._locate(a, b, segment)
+        except NewtonError as err:  # reported at the end of the step, which did converge
+            return unlocated({"locate_failed": str(err)})
         index = min(before, after)
         eigenvalue, phi = critical.spectrum.crossing(index)
         rate = load_rate(self.problem, self.parameter)

@@ -209,6 +209,29 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
             tau /= 2
 
 
+def _push_and_settle(problem, parameter: ngs.Parameter, state: np.ndarray, mode: np.ndarray | None, load: float, *,
+                     amplitude: float, **settle_options) -> SettleResult:
+    """``state`` at the load ``load``, pushed by root-mean-square ``amplitude`` along ``mode``
+    (full-length vector of unit root-mean-square amplitude) with the sign of lower energy, then
+    ``settle``."""
+    parameter.Set(load)
+    if mode is None:
+        problem.restore_state(state)
+        return settle(problem, parameter=parameter, **settle_options)
+    if not amplitude > 0:
+        raise ValueError(f"amplitude must be positive, got {amplitude!r}")
+    candidates = []
+    for sign in (1.0, -1.0):
+        pushed = state + sign * amplitude * mode
+        problem.restore_state(pushed)
+        candidates.append((problem.energy() if problem.admissible(problem.state) else math.inf, sign, pushed))
+    energy, sign, pushed = min(candidates, key=lambda c: c[0])
+    if energy == math.inf:
+        raise ValueError(f"amplitude {amplitude:g} along the critical mode leaves the admissible set (J <= 0)")
+    problem.restore_state(pushed)
+    return settle(problem, parameter=parameter, **settle_options)
+
+
 def settle_past(problem, parameter: ngs.Parameter, event, *, overshoot: float, amplitude: float,
                 **settle_options) -> SettleResult:
     """Where the structure goes after the located loss of stability ``event`` (an
@@ -220,34 +243,31 @@ def settle_past(problem, parameter: ngs.Parameter, event, *, overshoot: float, a
         raise ValueError("the event has no state or no critical mode (was it located?)")
     if overshoot == 0:
         raise ValueError("overshoot must be non-zero: at the critical load the flow has no direction")
-    if not amplitude > 0:
-        raise ValueError(f"amplitude must be positive, got {amplitude!r}")
-    parameter.Set(event.parameter + overshoot)
-    mode = event.mode.vec.FV().NumPy().copy()
-    candidates = []
-    for sign in (1.0, -1.0):
-        pushed = event.state + sign * amplitude * mode
-        problem.restore_state(pushed)
-        candidates.append((problem.energy() if problem.admissible(problem.state) else math.inf, sign, pushed))
-    energy, sign, pushed = min(candidates, key=lambda c: c[0])
-    if energy == math.inf:
-        raise ValueError(f"amplitude {amplitude:g} along the critical mode leaves the admissible set (J <= 0)")
-    problem.restore_state(pushed)
-    return settle(problem, parameter=parameter, **settle_options)
+    return _push_and_settle(problem, parameter, event.state, event.mode.vec.FV().NumPy().copy(),
+                            event.parameter + overshoot, amplitude=amplitude, **settle_options)
 
 
 def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, amplitude: float,
                  **settle_options) -> SettleResult:
     """Settle where the path ``path`` (an ``ngsgel.continuation.PathResult``) could not go on:
-    past its last event if that is a located loss of stability (``settle_past``), otherwise (a
-    path that stalled: no equilibrium next to its last state, e.g. beyond a limit point under load
-    control) from its last converged state at the load ``overshoot`` further."""
+    past its last event if that is a located loss of stability in its last step
+    (``settle_past``); otherwise from its last state at the load ``overshoot`` further, pushed
+    along its lowest mode if that state is unstable (a loss whose location failed), as is if it
+    is stable (a path that stalled: no equilibrium next to it, e.g. beyond a limit point under
+    load control)."""
+    if overshoot == 0:
+        raise ValueError("overshoot must be non-zero")
     last = path.events[-1] if path.events else None
     if (last is not None and last.mode is not None and last.negative_after > last.negative_before
             and last.step == path.points[-1].step):
         return settle_past(problem, parameter, last, overshoot=overshoot, amplitude=amplitude, **settle_options)
-    if overshoot == 0:
-        raise ValueError("overshoot must be non-zero")
-    problem.restore_state(path.checkpoint.state)
-    parameter.Set(path.checkpoint.parameter + overshoot)
-    return settle(problem, parameter=parameter, **settle_options)
+    state = path.checkpoint.state
+    mode = None
+    if path.points[-1].negative:
+        problem.restore_state(state)
+        parameter.Set(path.checkpoint.parameter)
+        lowest = spectrum(problem, count=1)
+        mode = np.zeros_like(state)
+        mode[problem.free_mask] = lowest.modes[:, 0]  # unit root-mean-square amplitude
+    return _push_and_settle(problem, parameter, state, mode, path.checkpoint.parameter + overshoot,
+                            amplitude=amplitude, **settle_options)
