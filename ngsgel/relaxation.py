@@ -248,19 +248,27 @@ def settle_past(problem, parameter: ngs.Parameter, event, *, overshoot: float, a
 
 
 def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, amplitude: float,
-                 **settle_options) -> SettleResult:
+                 target: float | None = None, **settle_options) -> SettleResult:
     """Settle where the path ``path`` (an ``ngsgel.continuation.PathResult``) could not go on:
     past its last event if that is a located loss of stability in its last step
     (``settle_past``); otherwise from its last state at the load ``overshoot`` further, pushed
     along its lowest mode if that state is unstable (a loss whose location failed), as is if it
     is stable (a path that stalled: no equilibrium next to it, e.g. beyond a limit point under
-    load control)."""
+    load control). The load does not go past ``target`` (e.g. ``mu = 0``, beyond which a gel in
+    free swelling has no equilibrium)."""
     if overshoot == 0:
         raise ValueError("overshoot must be non-zero")
     last = path.events[-1] if path.events else None
-    if (last is not None and last.mode is not None and last.negative_after > last.negative_before
-            and last.step == path.points[-1].step):
-        return settle_past(problem, parameter, last, overshoot=overshoot, amplitude=amplitude, **settle_options)
+    located = (last is not None and last.mode is not None and last.negative_after > last.negative_before
+               and last.step == path.points[-1].step)
+    base = last.parameter if located else path.checkpoint.parameter
+    load = base + overshoot
+    if target is not None and (load - target) * overshoot > 0:
+        load = target
+    if load == base:
+        raise ValueError(f"the path ended at the target {target!r}: nothing to settle past")
+    if located:
+        return settle_past(problem, parameter, last, overshoot=load - base, amplitude=amplitude, **settle_options)
     state = path.checkpoint.state
     mode = None
     if path.points[-1].negative:
@@ -269,5 +277,4 @@ def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, a
         lowest = spectrum(problem, count=1)
         mode = np.zeros_like(state)
         mode[problem.free_mask] = lowest.modes[:, 0]  # unit root-mean-square amplitude
-    return _push_and_settle(problem, parameter, state, mode, path.checkpoint.parameter + overshoot,
-                            amplitude=amplitude, **settle_options)
+    return _push_and_settle(problem, parameter, state, mode, load, amplitude=amplitude, **settle_options)

@@ -112,7 +112,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     ``through_snaps`` (with ``switch_all`` False): the legs after the first follow ``mu`` in
     natural steps (``step / 5`` growing to ``step``) and also end where the followed branch loses
     stability or the steps stall (below ``step / 160``: a fold); the disk then snaps at ``mu`` =
-    critical (or last) + ``snap_overshoot`` (``ngsgel.relaxation.settle_after``: pushed 0.1 t
+    critical (or last) + ``snap_overshoot`` (at most 0) (``ngsgel.relaxation.settle_after``: pushed 0.1 t
     along the critical mode, relaxed by the overdamped flow to a stable state, reported in
     ``events.json`` as "snap") and the next leg follows the branch it lands on."""
     if through_snaps and switch_all:
@@ -174,9 +174,9 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
             if natural:  # the branch lost stability (located event) or the steps stalled (a fold)
                 clock = time.perf_counter()
                 settled = settle_after(shell, shell.mu, path, overshoot=snap_overshoot, amplitude=0.1 * t,
-                                       progress=progress)
+                                       target=0.0, progress=progress)
                 snaps.append({"leg": leg, "kind": "snap", "stop_reason": path.stop_reason,
-                              "from_mu": shell.mu.Get() - snap_overshoot,
+                              "from_mu": path.points[-1].parameter,
                               "mu": shell.mu.Get(), "energy_drop": settled.energy_drop,
                               "distance": settled.distance, "pseudo_time_steps": settled.steps,
                               "rejected": settled.rejected, "lowest_eigenvalue": settled.lowest_eigenvalue,

@@ -514,7 +514,7 @@ def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_st
         last = path.points[-1]
         depth_from = path.checkpoint.parameter
         clock = time.perf_counter()
-        settled = settle_after(cap.shell, cap.depth, path, overshoot=min(step, depth_end - depth_from),
+        settled = settle_after(cap.shell, cap.depth, path, overshoot=step, target=depth_end,
                                amplitude=0.1 * cap.case.t, tau=tau, progress=progress)
         record = {"after_step": last.step, "negative_before": last.negative, "energy": settled.energy_end,
                   "from_d_over_H": depth_from / cap.case.H, "d_over_H": cap.depth.Get() / cap.case.H,

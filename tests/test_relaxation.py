@@ -61,8 +61,8 @@ def test_natural_steps_that_stall_at_the_limit_settle_on_the_far_branch():
                     stability=StabilityOptions(eigenvalues=1, tol=1e-5))
     path = stalled.value.result
     assert path.stop_reason == "min_step" and all(p.negative == 0 for p in path.points)
-    result = settle_after(prob, load, path, overshoot=0.05 - path.checkpoint.parameter, amplitude=1e-3)
-    assert load.Get() == pytest.approx(0.05) and result.negative == 0
+    result = settle_after(prob, load, path, overshoot=1.0, target=0.05, amplitude=1e-3)  # clipped at the target
+    assert load.Get() == 0.05 and result.negative == 0
 
     reference, reference_load, reference_w = arch()
     follow_path(reference, reference_load, step=0.01, max_step=0.02, target=0.05, max_steps=80)
