@@ -261,3 +261,24 @@ def test_natural_run_switches_branch_with_the_runs_residual_floor():
     assert [e.kind for e in result.events] == ["bifurcation", "branch switch"]
     end = result.points[-1]
     assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
+
+
+def test_a_change_whose_location_fails_is_reported_unlocated_and_the_path_goes_on(monkeypatch):
+    from ngsgel import continuation
+    from ngsgel.newton import NewtonError, NewtonResult
+
+    def failing_locate(self, a, b, segment):
+        segment(0.5)  # a solve inside the bracket, then the failure a crawling Newton gives
+        raise NewtonError("no convergence in 20 iterations (residual 4.6e-08)", NewtonResult(False, 20))
+
+    monkeypatch.setattr(continuation._Driver, "_locate", failing_locate)
+    prob, load, tip = column(12, control="displacement")
+    result = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3, qoi={"tip": tip},
+                         stability=StabilityOptions(eigenvalues=2, switch=True))
+    assert result.stop_reason == "target" and result.points[-1].parameter == 1.3
+    (event,) = result.events
+    assert event.kind == "stability change" and "no convergence" in event.details["locate_failed"]
+    assert (event.negative_before, event.negative_after) == (0, 1)
+    marked = [p for p in result.points if p.events]
+    assert len(marked) == 1 and marked[0].negative == 1 and marked[0].parameter == event.parameter
+    assert abs(tip()) < 1e-8  # not switched: still the straight (now unstable) branch
