@@ -107,3 +107,25 @@ def test_bad_growth_factor_is_named():
     prob, _, _ = arch()
     with pytest.raises(ValueError, match="grow"):
         settle(prob, grow=1.0)
+
+
+def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_lowest_mode(monkeypatch):
+    from ngsgel import continuation
+    from ngsgel.newton import NewtonError, NewtonResult
+
+    def failing_locate(self, a, b, segment):
+        raise NewtonError("location failed", NewtonResult(False, 20))
+
+    monkeypatch.setattr(continuation._Driver, "_locate", failing_locate)
+    prob, load, tip = column(12, control="displacement")
+    path = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3,
+                       stability=StabilityOptions(eigenvalues=2), stop=lambda p: bool(p.negative))
+    assert path.points[-1].negative == 1 and path.events[-1].kind == "stability change"
+    settle_after(prob, load, path, overshoot=1.0, target=1.3, amplitude=1e-3)
+    assert load.Get() == 1.3
+
+    monkeypatch.undo()
+    reference, reference_load, reference_tip = column(12, control="displacement")
+    follow_path(reference, reference_load, step=0.3, max_step=2.0, target=1.3,
+                stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    assert abs(tip()) == pytest.approx(abs(reference_tip()), rel=1e-8)
