@@ -269,7 +269,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
     onto the bifurcated branch. A path that cannot go on (a limit point under displacement control)
-    ends with ``stop_reason`` "stalled: ..." instead of raising. ``checkpoint_file``/``restart``:
+    ends with ``stop_reason`` "stalled: ..." instead of raising; one that loses stability where the
+    location fails stops there ("criterion"). ``checkpoint_file``/``restart``:
     see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
@@ -283,6 +284,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
                            qoi=qoi, history=history, vtk=vtk, progress=progress,
                            checkpoint_file=checkpoint_file, restart=restart,
+                           # a change whose location failed leaves the path on an unstable branch
+                           stop=lambda pt: "stability change" in pt.events,
                            # a chord step costs a residual, ~1/25 of a shell tangent
                            newton_options={"reuse_factorisation": True})
     except ContinuationError as error:
@@ -499,7 +502,7 @@ def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_st
                          restart: Checkpoint | None = None) -> PathResult:
     """``follow_shell`` to ``depth_end``; where it stalls (no equilibrium found next to the last
     one: a snap under displacement control, or a step Newton cannot make next to a critical
-    state) the cap is moved to the depth one ``step`` further and relaxed there by the overdamped
+    state) or loses stability at a point it could not locate, the cap is moved to the depth one ``step`` further and relaxed there by the overdamped
     flow (``ngsgel.relaxation.settle_after``) to a stable state, recorded as a "snap" event (force and
     vertex count before and after, energy drop, cost), and the path goes on from it; at most
     ``snaps`` times. The legs are joined into one path; ``snaps.json`` in the run folder."""
@@ -509,7 +512,8 @@ def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_st
                             progress=progress, checkpoint_file=run_dir.file("checkpoint.npz"),
                             restart=restart if not legs else None)
         legs.append(path)
-        if not path.stop_reason.startswith("stalled") or len(records) >= snaps:
+        lost = path.stop_reason == "criterion"  # an unlocated loss of stability (follow_shell's stop)
+        if not (path.stop_reason.startswith("stalled") or lost) or len(records) >= snaps:
             break
         last = path.points[-1]
         depth_from = path.checkpoint.parameter
