@@ -255,7 +255,7 @@ def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, a
     along its lowest mode if that state is unstable (a loss whose location failed), as is if it
     is stable (a path that stalled: no equilibrium next to it, e.g. beyond a limit point under
     load control). The load does not go past ``target`` (e.g. ``mu = 0``, beyond which a gel in
-    free swelling has no equilibrium)."""
+    free swelling has no equilibrium); a path that ended unstable at the target settles there."""
     if overshoot == 0:
         raise ValueError("overshoot must be non-zero")
     last = path.events[-1] if path.events else None
@@ -265,13 +265,14 @@ def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, a
     load = base + overshoot
     if target is not None and (load - target) * overshoot > 0:
         load = target
-    if load == base:
-        raise ValueError(f"the path ended at the target {target!r}: nothing to settle past")
-    if located:
+    if located and load != base:
         return settle_past(problem, parameter, last, overshoot=load - base, amplitude=amplitude, **settle_options)
+    unstable = bool(path.points[-1].negative)
+    if load == path.checkpoint.parameter and not unstable:
+        raise ValueError(f"the path ended stable at the target {target!r}: nothing to settle")
     state = path.checkpoint.state
     mode = None
-    if path.points[-1].negative:
+    if unstable:  # an unlocated loss, or one exactly at the target: leave along the lowest mode
         problem.restore_state(state)
         parameter.Set(path.checkpoint.parameter)
         lowest = spectrum(problem, count=1)

@@ -119,10 +119,14 @@ def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_low
     monkeypatch.setattr(continuation._Driver, "_locate", failing_locate)
     prob, load, tip = column(12, control="displacement")
     path = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3,
-                       stability=StabilityOptions(eigenvalues=2), stop=lambda p: bool(p.negative))
+                       stability=StabilityOptions(eigenvalues=2))
     assert path.points[-1].negative == 1 and path.events[-1].kind == "stability change"
+    assert path.points[-1].parameter == 1.3  # it ended unstable at the target: settles there
     settle_after(prob, load, path, overshoot=1.0, target=1.3, amplitude=1e-3)
     assert load.Get() == 1.3
+    stable_end = follow_path(prob, load, method="natural", step=0.3, target=1.3)
+    with pytest.raises(ValueError, match="stable at the target"):
+        settle_after(prob, load, stable_end, overshoot=1.0, target=1.3, amplitude=1e-3)
 
     monkeypatch.undo()
     reference, reference_load, reference_tip = column(12, control="displacement")
