@@ -39,6 +39,7 @@ from bench_shell import disk_circle_values, graded_plate_shell, plate_mode_wave
 from ngsgel import NewtonError, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
 from ngsgel.relaxation import settle_after
+from ngsgel.stability import free_matrix, negative_count
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import penetration_depth, wave_number
 
@@ -132,6 +133,11 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     rim = RimWaves(shell, mesh, half=half)
     if mu_start is not None:
         ramp(shell, shell.mu, mu_start, step=0.25)
+        with ngs.TaskManager():
+            unstable = negative_count(free_matrix(shell.tangent(shell.state), shell.free_mask))
+        if unstable:  # before any path work: a switch from an unstable start fails obscurely
+            raise RuntimeError(f"the flat disk at mu_start = {mu_start} is already unstable ({unstable} negative "
+                               f"eigenvalues at h = {maxh}): lower mu_start")
     error, points, all_events, snaps = None, [], [], []
     leg = 0
     qoi = {"leg": lambda: leg, **rim.qoi()}
