@@ -103,8 +103,9 @@ class PathPoint:
 @dataclass
 class Event:
     """``kind``: "limit point", "bifurcation", "branch switch" or "stability change" (not
-    located: a stabilised run, or a location whose solves failed, ``details["locate_failed"]``). ``parameter_error`` bounds the error of ``parameter`` (spread of the load parameter
-    over the final bracket); ``load_projection`` is the classification measure."""
+    located: a stabilised run, or a location whose solves failed, ``details["locate_failed"]``).
+    ``parameter_error`` bounds the error of ``parameter`` (spread of the load parameter over the
+    final bracket); ``load_projection`` is the classification measure."""
 
     kind: str
     step: int

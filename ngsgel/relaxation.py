@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import ngsolve as ngs
 
+from .newton import LinearSolver
 from .stability import free_matrix, load_rate, mass_matrix, negative_count, spectrum
 
 __all__ = ["SettleResult", "SettleError", "settle", "settle_past", "settle_after"]
@@ -93,7 +94,7 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     if xtol is None:
         xtol = getattr(problem, "newton_xtol", 1e-13)
     free = problem.free_mask
-    freedofs = problem.space.FreeDofs()
+    solver = LinearSolver(problem.space.FreeDofs(), inverse=problem.inverse)  # keeps the symbolic factorisation
     volume = problem.integrate(ngs.CF(1.0))
     mass = mass_matrix(problem)
     x = problem.state
@@ -114,7 +115,7 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     def damped_inverse(tau: float):
         K = problem.tangent(x)
         K.AsVector().data += (1.0 / tau) * mass.AsVector()
-        return K, K.Inverse(freedofs, inverse=problem.inverse)
+        return K, solver.factor(K)
 
     first = spectrum(problem, count=1)
     omega = float(first.eigenvalues[0])
