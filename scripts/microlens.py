@@ -497,46 +497,48 @@ def vertex_sequence(path: PathResult) -> list[dict]:
     return changes
 
 
-def indent_through_snaps(cap: ShellCap, depth_end: float, *, step: float, max_step: float, snaps: int,
-                         tau: float | None, history, vtk, progress, run_dir: RunDirectory,
+def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *, step: float, max_step: float,
+                         snaps: int, tau: float | None, history, vtk, progress, run_dir: RunDirectory,
+                         checkpoint_name: str = "checkpoint.npz", stage: str = "indentation",
                          restart: Checkpoint | None = None) -> PathResult:
-    """``follow_shell`` to ``depth_end``; where it stalls (no equilibrium found next to the last
-    one: a snap under displacement control, or a step Newton cannot make next to a critical
-    state) or loses stability at a point it could not locate, the cap is moved to the depth one ``step`` further and relaxed there by the overdamped
-    flow (``ngsgel.relaxation.settle_after``) to a stable state, recorded as a "snap" event (force and
+    """``follow_shell`` of ``parameter`` (the depth or ``mu``) to ``end``; where it stalls (no
+    equilibrium found next to the last one: a snap under displacement control, or a step Newton
+    cannot make next to a critical state) or loses stability at a point it could not locate, the
+    parameter moves one ``step`` further and the cap relaxes there by the overdamped flow
+    (``ngsgel.relaxation.settle_after``) to a stable state, recorded as a "snap" event (force and
     vertex count before and after, energy drop, cost), and the path goes on from it; at most
     ``snaps`` times. The legs are joined into one path; ``snaps.json`` in the run folder."""
     legs, records = [], []
     while True:
-        path = follow_shell(cap, cap.depth, depth_end, step=step, max_step=max_step, history=history, vtk=vtk,
-                            progress=progress, checkpoint_file=run_dir.file("checkpoint.npz"),
+        path = follow_shell(cap, parameter, end, step=step, max_step=max_step, history=history, vtk=vtk,
+                            progress=progress, stage=stage, checkpoint_file=run_dir.file(checkpoint_name),
                             restart=restart if not legs else None)
         legs.append(path)
         lost = path.stop_reason == "criterion"  # an unlocated loss of stability (follow_shell's stop)
         if not (path.stop_reason.startswith("stalled") or lost) or len(records) >= snaps:
             break
         last = path.points[-1]
-        depth_from = path.checkpoint.parameter
         clock = time.perf_counter()
-        settled = settle_after(cap.shell, cap.depth, path, overshoot=step, target=depth_end,
+        settled = settle_after(cap.shell, parameter, path, overshoot=step, target=end,
                                amplitude=0.1 * cap.case.t, tau=tau, progress=progress)
-        record = {"after_step": last.step, "negative_before": last.negative, "energy": settled.energy_end,
-                  "from_d_over_H": depth_from / cap.case.H, "d_over_H": cap.depth.Get() / cap.case.H,
+        record = {"stage": stage, "after_step": last.step, "negative_before": last.negative,
+                  "energy": settled.energy_end, "from": path.checkpoint.parameter, "to": parameter.Get(),
+                  "d_over_H": cap.depth.Get() / cap.case.H, "mu": cap.shell.mu.Get(),
                   "force_before": last.qoi["force"], "k_before": last.qoi["k"], "force_after": cap.force(),
                   "k_after": cap.update_waves(), "energy_drop": settled.energy_drop, "distance": settled.distance,
                   "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
                   "lowest_eigenvalue": settled.lowest_eigenvalue,
                   "wall_s": time.perf_counter() - clock, "stalled": path.stop_reason}
         records.append(record)
-        run_dir.write_json("snaps.json", records)
+        run_dir.write_json(f"snaps_{stage.replace(' ', '_')}.json", records)  # snaps_indentation.json, ...
         if progress is not None:
-            progress(f"snap to d/H {record['d_over_H']:.4f}: force {record['force_before']:.5g} -> "
-                     f"{record['force_after']:.5g}, k {record['k_before']:.0f} -> {record['k_after']:.0f}")
+            progress(f"snap to d/H {record['d_over_H']:.4f}, mu {record['mu']:.4g}: force "
+                     f"{record['force_before']:.5g} -> {record['force_after']:.5g}, "
+                     f"k {record['k_before']:.0f} -> {record['k_after']:.0f}")
     points = [pt for leg in legs for pt in leg.points]
     events = [ev for leg in legs for ev in leg.events]
-    events += [Event(kind="snap", step=r["after_step"], parameter=r["d_over_H"] * cap.case.H,
-                     negative_before=r["negative_before"], negative_after=0, energy=r["energy"], details=r)
-               for r in records]
+    events += [Event(kind="snap", step=r["after_step"], parameter=r["to"], negative_before=r["negative_before"],
+                     negative_after=0, energy=r["energy"], details=r) for r in records]
     return PathResult(points, events, legs[-1].stop_reason, legs[-1].checkpoint)
 
 
@@ -550,7 +552,8 @@ def shell_summary(case: Indentation, cap: ShellCap, stages: list[tuple[str, Path
                         "parameter": ev.parameter, "parameter_error": ev.parameter_error,
                         "negative_before": ev.negative_before, "negative_after": ev.negative_after} for ev in path.events],
             "vertex_sequence": vertex_sequence(path),
-            "load_drops": [asdict(drop) for drop in load_drops(d, f)] if name == "indentation" else [],
+            # a restart that changes mu at the checkpoint's depth has a one-point indentation
+            "load_drops": [asdict(drop) for drop in load_drops(d, f)] if name == "indentation" and len(d) > 1 else [],
             "max_volume_change": float(np.max(np.abs(path.column("volume_change")))),
         }
     return summary
@@ -572,37 +575,50 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
               mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
               snaps: int = 3, snap_tau: float | None = None, progress=None) -> dict:
     """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
-    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth.
+    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth
+    (``mu_at`` omitted with ``restart``: at the checkpoint's depth). ``mu_to`` may lie above the
+    bath's 0 up to the gel's ``mu_max`` (a slight swelling, as in the thesis's fig. 3-3B).
     Where the path stalls, the cap snaps at the next depth (at most ``snaps`` times, first
-    pseudo-time step ``snap_tau``; see ``indent_through_snaps``).
+    pseudo-time step ``snap_tau``; see ``follow_through_snaps``).
     Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
     ``restart`` (such a file of the indentation) goes on from it."""
-    if (mu_at is None) != (mu_to is None):
-        raise ValueError("mu_at and mu_to go together (the depth / H where mu changes, and its new value)")
-    if mu_at is not None:
-        if not 0 < mu_at <= case.depth:
-            raise ValueError(f"mu_at (depth / H) must be in (0, depth = {case.depth}], got {mu_at!r}")
-        if not -1 <= mu_to <= 0 or mu_to == case.mu:
-            raise ValueError(f"mu_to must be in [-1, 0] and differ from mu = {case.mu}, got {mu_to!r}")
+    if mu_at is not None and mu_to is None:
+        raise ValueError("mu_at needs mu_to (the depth / H where mu changes, and its new value)")
+    if mu_to is not None and mu_at is None and restart is None:
+        raise ValueError("mu_to needs mu_at, or a restart whose depth is where mu changes")
+    if mu_at is not None and not 0 < mu_at <= case.depth:
+        raise ValueError(f"mu_at (depth / H) must be in (0, depth = {case.depth}], got {mu_at!r}")
+    if mu_to is not None:
+        if not -1 <= mu_to or mu_to == case.mu:
+            raise ValueError(f"mu_to must be >= -1 and differ from mu = {case.mu}, got {mu_to!r}")
+        try:
+            GEL.lam_free(mu_to)
+        except ValueError as error:
+            raise ValueError(f"mu_to = {mu_to!r}: {error}") from error
+    if not (isinstance(mu_steps, int) and mu_steps >= 1):
+        raise ValueError(f"mu_steps must be an integer >= 1, got {mu_steps!r}")
     checkpoint = None if restart is None else Checkpoint.load(restart)
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
                                         "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
-                                        "mu_at": mu_at, "mu_to": mu_to, "restart": restart, "snaps": snaps,
-                                        "snap_tau": snap_tau})
+                                        "mu_at": mu_at, "mu_to": mu_to, "mu_steps": mu_steps, "restart": restart,
+                                        "snaps": snaps, "snap_tau": snap_tau})
     cap = ShellCap(case, res)
     vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
+    if mu_to is None:
+        depth_end = case.depth * case.H
+    else:  # the checkpoint's own depth exactly: the indentation stage is then its one re-converged state
+        depth_end = checkpoint.parameter if mu_at is None else mu_at * case.H
+    snap_options = {"snaps": snaps, "tau": snap_tau, "vtk": vtk, "progress": progress, "run_dir": run_dir}
     with History(run_dir.file("path.csv")) as history:
-        depth_end = (case.depth if mu_at is None else mu_at) * case.H
-        stages = [("indentation", indent_through_snaps(cap, depth_end, step=step * case.H, max_step=max_step * case.H,
-                                                       snaps=snaps, tau=snap_tau, history=history, vtk=vtk,
-                                                       progress=progress, run_dir=run_dir, restart=checkpoint))]
-        if mu_at is not None and stages[0][1].stop_reason == "target":
+        stages = [("indentation", follow_through_snaps(cap, cap.depth, depth_end, step=step * case.H,
+                                                       max_step=max_step * case.H, history=history,
+                                                       restart=checkpoint, **snap_options))]
+        if mu_to is not None and stages[0][1].stop_reason == "target":
             mu_step = abs(mu_to - case.mu) / mu_steps
-            stages.append(("mu change", follow_shell(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
-                                                     history=history, vtk=vtk, progress=progress,
-                                                     stage="mu change",
-                                                     checkpoint_file=run_dir.file("mu_change.npz"))))
+            stages.append(("mu change", follow_through_snaps(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
+                                                             history=history, checkpoint_name="mu_change.npz",
+                                                             stage="mu change", **snap_options)))
     summary = shell_summary(case, cap, stages)
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
@@ -623,8 +639,10 @@ def main(argv=None) -> dict:
     parser.add_argument("--apex-maxh", type=float, default=0.01, help="shell: element size on the apex patch")
     parser.add_argument("--full", action="store_true", help="shell: the whole cap instead of the mirror half")
     parser.add_argument("--step", type=float, default=0.025, help="shell: depth step / H (natural parameter)")
-    parser.add_argument("--mu-at", type=float, default=None, help="shell: change mu at this depth / H ...")
-    parser.add_argument("--mu-to", type=float, default=None, help="... to this value")
+    parser.add_argument("--mu-at", type=float, default=None,
+                        help="shell: change mu at this depth / H (default with --restart: the checkpoint's) ...")
+    parser.add_argument("--mu-to", type=float, default=None, help="... to this value (up to the gel's mu_max > 0)")
+    parser.add_argument("--mu-steps", type=int, default=10, help="... in this many steps")
     parser.add_argument("--restart", default=None,
                         help="shell: go on from this checkpoint.npz of an earlier run (same case and mesh)")
     parser.add_argument("--snaps", type=int, default=3,
@@ -668,7 +686,7 @@ def main_shell(args, quick: bool) -> dict:
                           order=2 if quick else args.order, apex=args.apex, half=not args.full,
                           realcompile=not quick)
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
-                        mu_at=args.mu_at, mu_to=args.mu_to, restart=args.restart, snaps=args.snaps,
+                        mu_at=args.mu_at, mu_to=args.mu_to, mu_steps=args.mu_steps, restart=args.restart, snaps=args.snaps,
                         snap_tau=args.snap_tau, progress=Progress("microlens shell"))
     for name in ("indentation", "mu change"):
         if name in summary:

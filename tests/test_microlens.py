@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+
 import numpy as np
 import pytest
 
@@ -48,10 +50,13 @@ def test_bad_input_is_rejected():
         with pytest.raises(ValueError, match=name):
             microlens.ShellResolution(**kwargs)
     case = microlens.Indentation(H=0.3)
-    with pytest.raises(ValueError, match="mu_at and mu_to"):
-        microlens.run_shell(case, microlens.ShellResolution(), "unused", mu_at=0.5)
-    with pytest.raises(ValueError, match="mu_to"):
-        microlens.run_shell(case, microlens.ShellResolution(), "unused", mu_at=0.5, mu_to=0.0)
+    res = microlens.ShellResolution()
+    for kwargs, message in (({"mu_at": 0.5}, "mu_at needs mu_to"), ({"mu_to": -0.01}, "mu_to needs mu_at"),
+                            ({"mu_at": 0.5, "mu_to": 0.0}, "mu_to must be >= -1 and differ"),
+                            ({"mu_at": 0.5, "mu_to": 1e-3}, "mu_to = 0.001: .*mu_max"),
+                            ({"mu_at": 0.5, "mu_to": -0.01, "mu_steps": 0}, "mu_steps")):
+        with pytest.raises(ValueError, match=message):
+            microlens.run_shell(case, res, "unused", **kwargs)
 
 
 @pytest.mark.parametrize("half", [True, False])
@@ -96,6 +101,18 @@ def test_quick_shell_run_follows_the_axisymmetric_start(tmp_path):
     for name in ("path.csv", "summary.json", "force_depth.png", "cap.pvd", "checkpoint.npz"):
         assert (tmp_path / name).stat().st_size > 0
     assert Checkpoint.load(tmp_path / "checkpoint.npz").parameter == pytest.approx(0.3 * 0.3)
+    # the mu-change stage from that checkpoint, at its depth: lowering mu slightly shrinks the gel,
+    # monotonically, and by less than free swelling would (the base is clamped, the apex held)
+    mu_to = -1e-4
+    changed = microlens.main(["--model", "shell", "--quick", "--out", str(tmp_path / "mu"), "--mu-steps", "2",
+                              "--restart", str(tmp_path / "checkpoint.npz"), f"--mu-to={mu_to}"])
+    assert changed["indentation"]["steps"] == 0 and changed["mu change"]["stop_reason"] == "target"
+    rows = list(csv.DictReader(open(tmp_path / "mu" / "path.csv")))
+    mu, volume = (np.array([float(row[name]) for row in rows[1:]]) for name in ("mu", "volume_change"))
+    assert mu[-1] == pytest.approx(mu_to) and np.all(np.diff(mu) < 0)
+    assert np.all(np.diff(volume) < 0)
+    free = (microlens.GEL.lam_free(mu_to) / microlens.GEL.lam_free(0.0)) ** 3 - 1
+    assert free < volume[-1] - volume[0] < 0
 
 
 def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
