@@ -24,6 +24,7 @@ Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summ
 end).
 
     python scripts/graded_plate_shell.py --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
+    python scripts/graded_plate_shell.py --out results/p10_snaps --half --watch-after-first-switch --through-snaps
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run,
 from ngsgel.patterns import penetration_depth, wave_number
 
 RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
+QUICK_MU_START = -0.3  # below the k = 2 onsets of every p at h = 0.2 (the lowest: -0.291, p = 2)
 RIM_SAMPLES = 128
 RIM_MODES = 12
 
@@ -120,8 +122,10 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
     if not snap_overshoot > 0:
         raise ValueError(f"snap_overshoot must be positive (mu rises), got {snap_overshoot!r}")
-    if quick:
-        maxh, max_steps, realcompile = max(maxh, 0.3), min(max_steps, 12), False
+    if quick:  # the coarsest mesh whose onset is right: at h = 0.3 it lies 40 % low and the switch fails
+        maxh, max_steps, realcompile, half = 0.2, min(max_steps, 8), False, True
+        switch_all, through_snaps = False, False
+        mu_start = QUICK_MU_START if mu_start is None else mu_start
     params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
                   switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot, quick=quick,
@@ -245,7 +249,9 @@ def plot_shape(shell, mesh: ngs.Mesh, path, *, title: str, half: bool = False) -
 
 
 def main(argv=None) -> dict:
-    parser = scene_parser(__doc__, out="results/graded_plate_shell", quick="h = 0.3, 12 steps, no C++ compile")
+    parser = scene_parser(__doc__, out="results/graded_plate_shell",
+                          quick=f"half disk, h = 0.2, from mu = {QUICK_MU_START} through the first switch onto the "
+                                "saddle, 8 steps, no C++ compile (about 2 min)")
     parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
     parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
     parser.add_argument("--maxh", type=float, default=0.2, help="shell mesh size")

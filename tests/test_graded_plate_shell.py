@@ -25,3 +25,19 @@ def test_pattern_depth_of_an_exponentially_decaying_edge_wave(half):
     assert depth["l_half"] == pytest.approx(decay * math.log(2), rel=0.03)
     rim = np.array(depth["amplitude"])[-1]
     assert rim == pytest.approx(math.exp(-0.03 / decay), rel=1e-3)
+
+
+@pytest.mark.slow
+def test_quick_run_switches_onto_the_saddle_at_the_converged_onset(tmp_path):
+    # --quick (half disk, h = 0.2, about 2 min): the flat disk loses stability at the onset of the
+    # converged reference (100 x 4 section cells, bench_shell.GRADED_REFERENCE) and the switch
+    # lands on a stable, nearly pure k = 2 saddle
+    summary = graded_plate_shell.main(["--quick", "--out", str(tmp_path)])
+    kinds = [e["kind"] for e in summary["events"]]
+    assert kinds[:2] == ["bifurcation", "branch switch"]
+    onset = summary["events"][0]
+    assert onset["mu"] == pytest.approx(bench_shell.GRADED_REFERENCE[10.0], rel=1e-3)
+    assert onset["mode_k"] == 2
+    assert summary["negative_end"] == 0 and summary["mu_end"] > onset["mu"]
+    assert summary["rim_end"]["rim_k"] == 2 and summary["rim_end"]["rim_purity"] > 0.9
+    assert summary["rim_end"]["rim_amplitude"] > 0.1 * 0.01
