@@ -254,11 +254,15 @@ def test_natural_run_switches_branch_with_the_runs_residual_floor():
     # The branch switch of a natural-parameter run converges its bordered corrector to the run's
     # absolute residual floor: a guess next to the critical state has a residual near round-off,
     # which no relative tolerance can reduce (it failed with "no convergence ... residual 1e-18"
-    # on a 50k-unknown shell).
+    # on a 50k-unknown shell). Amplitude 3e-4: without the floor the switch still fails ("residual
+    # 3e-16"), and the switched state's lowest eigenvalue (7e-12) is 9x further from round-off than
+    # at 1e-4, where one run on a loaded machine counted it negative (an extra unlocated change).
     prob, load, tip = column(12, control="displacement")
     result = follow_path(prob, load, method="natural", step=0.3, target=1.3, qoi={"tip": tip},
-                         stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=1e-4))
+                         stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=3e-4))
     assert [e.kind for e in result.events] == ["bifurcation", "branch switch"]
+    switched = next(p for p in result.points if "branch switch" in p.events)
+    assert switched.eigenvalues[0] > 1e-12
     end = result.points[-1]
     assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
 
