@@ -15,9 +15,17 @@ penetration at pressure ``p`` is ``p / k``, so ``k`` must be large against the s
 surface elements (``G / h``) for the penetration to be a small fraction of ``h``. The
 checks here measure it after every step.
 
-NGSolve's ``ContactBoundary`` (gap function between two boundary regions updated on the
-deformed mesh) is the tool for general self-contact, where creases form anywhere along the
-surface; it is not used here (see docs/creases.md).
+General self-contact. Where a crease forms anywhere along the surface, its faces meet at no
+known place: ``SelfContact`` pairs every quadrature point of the boundary with the closest point
+of the same boundary's deformed image that faces it (NGSolve's ``ContactBoundary``, its pairs
+renewed at every state the solver evaluates) and adds
+
+    W_c = k/2 <g>_+^2   per unit reference boundary,   g = (x_1 - x_2) . n_1,
+
+``x_1`` the point, ``x_2`` its partner, ``n_1`` the outward normal at ``x_1`` (deformed). Every
+face is a master, so two faces overlapping by ``g`` carry the energy twice: the penalty ``k/4``
+here is the mirror-plane penalty ``k`` of ``plane_contact`` on a mirror image (the gap is twice
+the distance to the plane), which ``tests/test_contact.py`` checks on a closed crease.
 """
 
 from __future__ import annotations
@@ -29,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import ngsolve as ngs
 
-__all__ = ["plane_contact", "SurfaceLine", "surface_line", "self_intersections", "crossing_pairs"]
+__all__ = ["plane_contact", "SelfContact", "SurfaceLine", "surface_line", "self_intersections", "crossing_pairs"]
 
 
 def plane_contact(*, component: int, position: float, side: int, penalty: float) -> Callable:
@@ -50,6 +58,44 @@ def plane_contact(*, component: int, position: float, side: int, penalty: float)
         return 0.5 * penalty * ngs.IfPos(gap, gap * gap, 0.0)
 
     return density
+
+
+class SelfContact:
+    """Penalty self-contact of ``boundary`` (2D or 3D meshes): ``k/2 <g>_+^2`` per unit
+    reference boundary for every point that has passed through the face opposite it, searched
+    within ``maxdist`` (default 0: twice the largest boundary element) with ``intorder`` points
+    per element. ``attach`` adds it to a problem's form; ``update(displacement)`` renews the
+    pairs for a state and must precede every residual, tangent and energy evaluation there."""
+
+    def __init__(self, mesh: ngs.Mesh, boundary: str, *, penalty: float, maxdist: float = 0.0,
+                 intorder: int = 4):
+        if mesh.dim not in (2, 3):
+            raise ValueError(f"self-contact needs a 2D or 3D mesh, got dim={mesh.dim}")
+        if not (isinstance(penalty, (int, float)) and math.isfinite(penalty) and penalty > 0):
+            raise ValueError(f"penalty must be a finite number > 0, got {penalty!r}")
+        if not (isinstance(maxdist, (int, float)) and math.isfinite(maxdist) and maxdist >= 0):
+            raise ValueError(f"maxdist must be a finite number >= 0, got {maxdist!r}")
+        if not (isinstance(intorder, int) and intorder >= 1):
+            raise ValueError(f"intorder must be an integer >= 1, got {intorder!r}")
+        self.mesh, self.boundary, self.penalty = mesh, boundary, float(penalty)
+        self.maxdist, self.intorder = float(maxdist), intorder
+        self._contact = None
+        self._form = None
+
+    def attach(self, form: ngs.BilinearForm, u, weight=1.0) -> None:
+        """Add the energy to ``form``; ``u`` is the displacement trial function (a component of
+        the form's space), ``weight`` the kinematics' volume weight (``r`` axisymmetric)."""
+        region = self.mesh.Boundaries(self.boundary)
+        contact = ngs.ContactBoundary(region, region, volume=False)
+        X = ngs.CF((ngs.x, ngs.y, ngs.z)[:self.mesh.dim])
+        gap = (X + u - (X.Other() + u.Other())) * contact.normal
+        contact.AddEnergy(weight * ngs.IfPos(gap, 0.5 * self.penalty * gap * gap, 0.0))
+        self._contact, self._form = contact, form
+
+    def update(self, displacement: ngs.GridFunction) -> None:
+        if self._contact is None:
+            raise RuntimeError("attach the self-contact to a form first")
+        self._contact.Update(displacement, self._form, self.intorder, self.maxdist)
 
 
 @dataclass(frozen=True, eq=False)

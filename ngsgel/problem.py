@@ -20,6 +20,7 @@ from numbers import Real
 import numpy as np
 import ngsolve as ngs
 
+from .contact import SelfContact
 from .kinematics import Kinematics
 from .materials import FloryRehnerGel, Material, _check_lam0
 from .newton import LinearSolver, NewtonResult, newton
@@ -106,6 +107,7 @@ class GelBody(BuiltOnDemand):
         self._fixed: dict[int, list[str]] = {i: [] for i in range(len(kinematics.components))}
         self._prescribed: list[_Prescribed] = []
         self._surface_energies: list[tuple[str, Callable]] = []
+        self._self_contacts: list[SelfContact] = []
         self._space = None
 
     # ---------------------------------------------------------- boundary conditions
@@ -151,6 +153,34 @@ class GelBody(BuiltOnDemand):
         if not callable(density):
             raise ValueError(f"density must be a callable u -> CoefficientFunction, got {type(density).__name__}")
         self._surface_energies.append((boundary, density))
+
+    def add_self_contact(self, boundary: str, *, penalty: float, maxdist: float = 0.0, intorder: int = 4) -> None:
+        """Penalty self-contact of ``boundary`` (``ngsgel.contact.SelfContact``): faces of it that
+        meet, e.g. a crease closing anywhere along a free surface, do not pass through each other
+        (beyond the penalty's penetration ``p / (2 k)`` at contact pressure ``p``)."""
+        self._check_open()
+        self._check_boundary(boundary)
+        self._self_contacts.append(SelfContact(self.mesh, boundary, penalty=penalty, maxdist=maxdist,
+                                               intorder=intorder))
+
+    def _attach_self_contacts(self, form: ngs.BilinearForm, u, space: ngs.FESpace,
+                              displacement_of: Callable[[ngs.GridFunction], ngs.GridFunction]) -> None:
+        """Add the self-contact energies to ``form`` (``u``: the displacement trial function);
+        ``displacement_of`` views the displacement of a GridFunction of ``space``."""
+        self._contact_state = ngs.GridFunction(space) if self._self_contacts else None
+        for contact in self._self_contacts:
+            contact.attach(form, u, self.kinematics.volume_weight())
+        if self._self_contacts:
+            self._contact_displacement = displacement_of(self._contact_state)
+
+    def _update_self_contacts(self, x) -> None:
+        """The self-contact pairs of the state ``x``: before every evaluation of the form there."""
+        if not self._self_contacts:
+            return
+        self.form  # built: the contact state exists
+        self._contact_state.vec.data = x
+        for contact in self._self_contacts:
+            contact.update(self._contact_displacement)
 
     def with_surface_energies(self, energy, u):
         """``energy`` plus the surface energies declared with ``add_surface_energy``."""
@@ -283,6 +313,7 @@ class EquilibriumProblem(GelBody):
             energy += -(w * ngs.InnerProduct(t, u)) * ngs.ds(definedon=self.mesh.Boundaries(boundary))
         form = ngs.BilinearForm(V, symmetric=True)
         form += ngs.Variation(energy)
+        self._attach_self_contacts(form, u, V, lambda gf: self.parts(gf)[0])
         self._form = form
         self.gf = ngs.GridFunction(V, name="displacement")
         self._scratch = ngs.GridFunction(V)
@@ -314,14 +345,18 @@ class EquilibriumProblem(GelBody):
         return self.parts(self.gridfunction)[0]
 
     def residual(self, x, out) -> None:
+        self._update_self_contacts(x)
         self.form.Apply(x, out)
 
     def tangent(self, x):
+        self._update_self_contacts(x)
         self.form.AssembleLinearization(x)
         return self.form.mat
 
     def energy(self, x=None) -> float:
-        return self.form.Energy(self.state if x is None else x)
+        x = self.state if x is None else x
+        self._update_self_contacts(x)
+        return self.form.Energy(x)
 
     def prescribed(self, out) -> None:
         out[:] = 0.0

@@ -263,6 +263,7 @@ class TransientProblem(GelBody):
             du_step = u - self._old.components[0]
             energy = energy + (self.viscosity / (2 * self.dt) * w * ngs.InnerProduct(du_step, du_step)) * ngs.dx(intrules=rules)
         form += ngs.Variation(energy)
+        self._attach_self_contacts(form, u, X, lambda gf: gf.components[0])
         if self.lumped:  # replace the energy's consistent mass by the lumped one
             form += (self._content_density(Fp) * q).Compile() * ngs.dx(intrules=rules)
             form += (-self._content_density(Fp) * q).Compile() * ngs.dx(intrules=mass_rules)
@@ -311,11 +312,13 @@ class TransientProblem(GelBody):
 
     # -------------------------------------------------------- NonlinearSystem protocol
     def residual(self, x, out) -> None:
+        self._update_self_contacts(x)
         self.form.Apply(x, out)
         out.data += self._old_content.vec
         out.data += self._inflow.vec
 
     def tangent(self, x):
+        self._update_self_contacts(x)
         self.form.AssembleLinearization(x)
         return self.form.mat
 

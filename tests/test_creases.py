@@ -13,9 +13,10 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
 import creases  # noqa: E402
 from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp  # noqa: E402
-from ngsgel.contact import plane_contact, self_intersections, surface_line  # noqa: E402
+from ngsgel.contact import SelfContact, plane_contact, self_intersections, surface_line  # noqa: E402
 from ngsgel.surface import surface_tension  # noqa: E402
 from netgen import occ  # noqa: E402
+from ngsolve.meshes import Make1DMesh  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
 
@@ -206,3 +207,64 @@ def test_quick_script_reports_onset(tmp_path):
     sharp = saved["tip_sharpening"]  # the converging onset measure (needs tip_h <= l/16 to mean anything)
     assert sharp is None or sharp["previous_time"] <= sharp["time"] <= sharp["step_time"]
     assert (tmp_path / "creases.png").stat().st_size > 0
+
+
+def test_self_contact_closes_an_interior_crease_as_the_mirror_plane_does():
+    # The period [0, 2W] with its trough in the middle, where the crease is an interior one held by
+    # general self-contact (penalty k/4 per face, both faces masters), against the half cell
+    # [0, W] whose crease closes on the mirror plane x = 0 (penalty k): at a ratio past the
+    # groove's closing (2.8; 2.53 is still open) both must be the same state - energy twice the
+    # half cell's, overlap of the faces twice the half cell's penetration of the plane. Without
+    # the self-contact that closed state does not exist (Newton fails: the faces would cross).
+    setup = creases.Setup(amplitude=0.1, top_h=0.01, maxh=0.05, surface_tension=0.02)
+    W = setup.width
+    k = setup.penalty * setup.gel.shear_modulus(setup.lam0) / setup.surface_h
+    half = creases.build_equilibrium(setup, imperfect=True, contact=True)
+    mesh = layer_plane(width=2 * W, thickness=1.0, maxh=setup.maxh, top_maxh=setup.top_h,
+                       amplitude=setup.amplitude * W, wavelength=2 * W).mesh
+    full = EquilibriumProblem(mesh, kinematics=PlaneStrain(), materials=setup.gel, lam0=setup.lam0, mu=setup.mu0,
+                              quadrature_order=4)
+    full.fix("bottom")
+    full.fix("left|right", "x")
+    setup.add_surface_tension(full)
+    full.add_self_contact("top", penalty=k / 4)
+
+    def mu_at(ratio):
+        return brentq(lambda m: setup.ratio(m) - ratio, setup.mu0, 0.0, xtol=1e-12)
+
+    for prob in (half, full):
+        ramp(prob, prob.mu, mu_at(2.53), step=0.05)
+        prob.mu.Set(mu_at(2.8))
+        prob.solve(maxit=80)
+    assert full.energy() == pytest.approx(2 * half.energy(), rel=5e-6)
+
+    penetration = -surface_line(half.displacement, half.mesh, "top").current[:, 0].min()
+    line = surface_line(full.displacement, full.mesh, "top")
+    ref, cur = line.reference, line.current
+    bottom = cur[:, 1].min()
+    heights = np.linspace(bottom + 0.005, bottom + 0.05, 20)
+
+    def x_of_face(face, y):
+        points = cur[face & (np.abs(ref[:, 0] - W) < 0.06)]
+        order = np.argsort(points[:, 1])
+        return np.interp(y, points[order, 1], points[order, 0])
+
+    left = ref[:, 0] < W
+    overlap = max(x_of_face(left, y) - x_of_face(~left, y) for y in heights)
+    assert penetration > 0 and overlap == pytest.approx(2 * penetration, rel=0.1)
+
+
+def test_self_contact_input_is_checked_before_any_solve():
+    setup = coarse()
+    prob = creases.build_equilibrium(setup, imperfect=True, contact=False)
+    for kwargs, name in (({"penalty": 0.0}, "penalty"), ({"penalty": 1.0, "maxdist": -1.0}, "maxdist"),
+                         ({"penalty": 1.0, "intorder": 0}, "intorder")):
+        with pytest.raises(ValueError, match=name):
+            prob.add_self_contact("top", **kwargs)
+    with pytest.raises(ValueError, match="unknown boundary"):
+        prob.add_self_contact("roof", penalty=1.0)
+    with pytest.raises(ValueError, match="2D or 3D"):
+        SelfContact(Make1DMesh(4), "right", penalty=1.0)
+    prob.solve()
+    with pytest.raises(RuntimeError, match="before the first solve"):
+        prob.add_self_contact("top", penalty=1.0)
