@@ -104,6 +104,9 @@ class PathPoint:
 class Event:
     """``kind``: "limit point", "bifurcation", "branch switch" or "stability change" (not
     located: a stabilised run, or a location whose solves failed, ``details["locate_failed"]``).
+    A bifurcation whose branch switch failed has ``details["switch_failed"]``; its located point
+    is recorded with the events "switch failed" and "bifurcation", and the path goes on along the
+    original, now unstable branch.
     ``parameter_error`` bounds the error of ``parameter`` (spread of the load parameter over the
     final bracket); ``load_projection`` is the classification measure."""
 
@@ -484,8 +487,14 @@ class _Driver:
         self.events.append(event)
         located = [(critical, kind)]
         if kind == "bifurcation" and self.stability.switch:
-            located.append((switch(a, critical), "branch switch"))
-            return located, True
+            try:
+                located.append((switch(a, critical), "branch switch"))
+                return located, True
+            except NewtonError as err:
+                # the corrector found no state along the mode (a flat bifurcated branch makes its
+                # bordered system nearly singular): the path stays on its now unstable branch
+                event.details["switch_failed"] = str(err)
+                self._pending = ("switch failed",)
         self._goto(b)
         return located, False
 

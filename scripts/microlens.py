@@ -269,8 +269,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
     onto the bifurcated branch. A path that cannot go on (a limit point under displacement control)
-    ends with ``stop_reason`` "stalled: ..." instead of raising; one that loses stability where the
-    location fails stops there ("criterion"). ``checkpoint_file``/``restart``:
+    ends with ``stop_reason`` "stalled: ..." instead of raising; one left on an unstable branch (the
+    location or the branch switch failed) stops there ("criterion"). ``checkpoint_file``/``restart``:
     see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
@@ -284,8 +284,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
                            qoi=qoi, history=history, vtk=vtk, progress=progress,
                            checkpoint_file=checkpoint_file, restart=restart,
-                           # a change whose location failed leaves the path on an unstable branch
-                           stop=lambda pt: "stability change" in pt.events,
+                           # on an unstable branch: a change whose location or branch switch failed
+                           stop=lambda pt: pt.negative > 0,
                            # a chord step costs a residual, ~1/25 of a shell tangent
                            newton_options={"reuse_factorisation": True})
     except ContinuationError as error:
@@ -514,7 +514,7 @@ def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *,
                             progress=progress, stage=stage, checkpoint_file=run_dir.file(checkpoint_name),
                             restart=restart if not legs else None)
         legs.append(path)
-        lost = path.stop_reason == "criterion"  # an unlocated loss of stability (follow_shell's stop)
+        lost = path.stop_reason == "criterion"  # left on an unstable branch (follow_shell's stop)
         if not (path.stop_reason.startswith("stalled") or lost) or len(records) >= snaps:
             break
         last = path.points[-1]

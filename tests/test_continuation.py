@@ -267,6 +267,26 @@ def test_natural_run_switches_branch_with_the_runs_residual_floor():
     assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
 
 
+def test_a_failed_branch_switch_is_reported_and_the_path_goes_on_unstable(monkeypatch):
+    from ngsgel import continuation
+    from ngsgel.newton import NewtonError, NewtonResult
+
+    def failing_switch(self, a, critical, converge):
+        raise NewtonError("no convergence in 20 iterations (residual 1.9e-06)", NewtonResult(False, 20))
+
+    monkeypatch.setattr(continuation._Driver, "branch_switch", failing_switch)
+    prob, load, tip = column(12, control="displacement")
+    result = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3, qoi={"tip": tip},
+                         stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True))
+    assert result.stop_reason == "target" and result.points[-1].parameter == 1.3
+    (event,) = result.events
+    assert event.kind == "bifurcation" and "no convergence" in event.details["switch_failed"]
+    assert event.parameter == pytest.approx(1.0, abs=2e-3)  # Euler load of the column (as located above)
+    marked = [p for p in result.points if p.events]
+    assert len(marked) == 1 and set(marked[0].events) == {"bifurcation", "switch failed"}
+    assert result.points[-1].negative == 1 and abs(tip()) < 1e-8  # still straight, now unstable
+
+
 def test_a_change_whose_location_fails_is_reported_unlocated_and_the_path_goes_on(monkeypatch):
     from ngsgel import continuation
     from ngsgel.newton import NewtonError, NewtonResult
