@@ -15,6 +15,7 @@ from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp  # noqa: E402
 from ngsgel.contact import SelfContact, plane_contact, self_intersections, surface_line  # noqa: E402
 from ngsgel.surface import surface_tension  # noqa: E402
+from ngsgel.transient import march  # noqa: E402
 from netgen import occ  # noqa: E402
 from ngsolve.meshes import Make1DMesh  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
@@ -268,3 +269,17 @@ def test_self_contact_input_is_checked_before_any_solve():
     prob.solve()
     with pytest.raises(RuntimeError, match="before the first solve"):
         prob.add_self_contact("top", penalty=1.0)
+
+
+def test_self_contact_of_the_transient_problem_leaves_an_open_surface_alone():
+    # The transient (u, mu) problem with the top's self-contact declared: while no faces meet (the
+    # first steps of immersion of the coarse cell), every step is the one without it, to round-off.
+    setup = coarse()
+    states = []
+    for self_contact in (False, True):
+        prob = creases.build_transient(setup)
+        if self_contact:
+            prob.add_self_contact("top", penalty=1e3 * setup.gel.shear_modulus(setup.lam0) / setup.top_h)
+        march(prob, 20 * setup.ramp, dt_start=setup.ramp / 10)
+        states.append(prob.save_state())
+    assert np.max(np.abs(states[1] - states[0])) <= 1e-12 * np.max(np.abs(states[0]))
