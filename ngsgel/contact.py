@@ -25,7 +25,7 @@ renewed at every state the solver evaluates) and adds
 ``x_1`` the point, ``x_2`` its partner, ``n_1`` the outward normal at ``x_1`` (deformed). Every
 face is a master, so two faces overlapping by ``g`` carry the energy twice: the penalty ``k/4``
 here is the mirror-plane penalty ``k`` of ``plane_contact`` on a mirror image (the gap is twice
-the distance to the plane), which ``tests/test_contact.py`` checks on a closed crease.
+the distance to the plane), which ``tests/test_creases.py`` checks on a closed crease.
 """
 
 from __future__ import annotations
