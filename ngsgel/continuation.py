@@ -535,17 +535,39 @@ class _Driver:
     def branch_switch(self, a: _Converged, critical: _Converged, converge: Callable[[np.ndarray, float, np.ndarray, float], NewtonResult]) -> _Converged:
         """Leave ``critical`` along ``+-`` its mode; keep the candidate with fewer negative
         eigenvalues, then the lower energy relative to the original branch at its load (that
-        branch re-converged from the stable side ``a``)."""
+        branch re-converged from the stable side ``a``).
+
+        Where the bordered corrector (the state at the mode amplitude ``amplitude * length``)
+        fails, the same guess is solved at a fixed load past the critical one (by the larger of
+        ``10 tol`` and half the way from ``a`` to the critical point): a
+        bifurcated branch whose amplitude grows like ``sqrt(load)`` with a small factor puts
+        that amplitude far beyond the corrector's reach (the coarse graded disk: ``mu`` 0.28
+        past the critical value), while just past it the branch is near. A candidate that fell
+        back onto the original branch (mode amplitude below 1e-3 of the guess's) fails the switch."""
         opts = self.stability
         index = min(a.spectrum.negative, critical.spectrum.negative)
         phi = critical.spectrum.crossing(index)[1]
         free = self.problem.free_mask
         amplitude = opts.amplitude * opts.length
-        candidates = []
+        offset = max(10 * opts.tol, 0.5 * abs(critical.parameter - a.parameter))
+        past = critical.parameter + math.copysign(offset, critical.parameter - a.parameter)
+        candidates, methods = [], []
         for sign in (1.0, -1.0):
             guess = critical.state.copy()
             guess[free] += sign * amplitude * phi
-            newton_result = converge(guess, critical.parameter, phi / (phi @ phi), sign * amplitude)
+            try:
+                newton_result = converge(guess, critical.parameter, phi / (phi @ phi), sign * amplitude)
+                methods.append("bordered")
+            except NewtonError as err:
+                self.problem.restore_state(guess)
+                self.parameter.Set(past)
+                # next to the critical state Newton converges slowly (a nearly singular tangent)
+                newton_result = self.problem.solve(**{**self.newton_options, "maxit": 60})
+                left = abs(phi @ (self.problem.save_state()[free] - critical.state[free])) / (phi @ phi)
+                if left < 1e-3 * amplitude:
+                    raise NewtonError(f"the corrector failed ({err}) and the solve past the critical load "
+                                      f"returned to the original branch", newton_result) from err
+                methods.append(f"natural at {past:.6g} (the corrector failed: {err})")
             point = self.converged(newton_result.iterations)
             energy = self.problem.energy()
             self._goto(a)
@@ -559,7 +581,7 @@ class _Driver:
                                  negative_before=critical.spectrum.negative, negative_after=negative,
                                  energy=energy, state=chosen.state,
                                  details={"sign": sign, "energy_original_branch": original,
-                                          "energy_gain": gain,
+                                          "energy_gain": gain, "methods": methods,
                                           "candidates": [(c[2], c[0], c[1]) for c in candidates]}))
         return chosen
 

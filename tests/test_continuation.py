@@ -267,6 +267,32 @@ def test_natural_run_switches_branch_with_the_runs_residual_floor():
     assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
 
 
+def test_a_branch_switch_whose_corrector_fails_is_solved_just_past_the_critical_load(monkeypatch):
+    # The bordered corrector fails (as on the coarse graded disk, whose bifurcated branch reaches
+    # the switch amplitude only far past the critical load): the same guess solved at a load past
+    # the critical one (half the way from the last stable point) lands on the buckled branch, and
+    # the path follows it.
+    from ngsgel import continuation
+    from ngsgel.newton import NewtonError, NewtonResult
+
+    def failing_solve(self, guess, origin, normal, s):
+        raise NewtonError("no convergence in 20 iterations (residual 6.3e-03)", NewtonResult(False, 20))
+
+    monkeypatch.setattr(continuation.BorderedCorrector, "solve", failing_solve)
+    prob, load, tip = column(12, control="displacement")
+    result = follow_path(prob, load, method="natural", step=0.3, target=1.3, qoi={"tip": tip},
+                         stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=3e-4))
+    assert [e.kind for e in result.events] == ["bifurcation", "branch switch"]
+    switch = result.events[1]
+    assert all(m.startswith("natural at") for m in switch.details["methods"])
+    critical = result.events[0].parameter
+    before = max(p.parameter for p in result.points if p.parameter < critical)
+    assert switch.parameter == pytest.approx(critical + 0.5 * (critical - before), abs=1e-12)
+    assert switch.negative_after == 0
+    end = result.points[-1]
+    assert end.parameter == 1.3 and end.negative == 0 and abs(end.qoi["tip"]) > 0.5
+
+
 def test_a_failed_branch_switch_is_reported_and_the_path_goes_on_unstable(monkeypatch):
     from ngsgel import continuation
     from ngsgel.newton import NewtonError, NewtonResult
