@@ -491,8 +491,8 @@ class _Driver:
                 located.append((switch(a, critical), "branch switch"))
                 return located, True
             except NewtonError as err:
-                # the corrector found no state along the mode (a flat bifurcated branch makes its
-                # bordered system nearly singular): the path stays on its now unstable branch
+                # neither the corrector nor the solve past the critical load found the new
+                # branch: the path stays on its now unstable one
                 event.details["switch_failed"] = str(err)
                 self._pending = ("switch failed",)
         self._goto(b)

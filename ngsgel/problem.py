@@ -168,19 +168,26 @@ class GelBody(BuiltOnDemand):
         """Add the self-contact energies to ``form`` (``u``: the displacement trial function);
         ``displacement_of`` views the displacement of a GridFunction of ``space``."""
         self._contact_state = ngs.GridFunction(space) if self._self_contacts else None
+        self._paired_state: np.ndarray | None = None  # the state the current pairs belong to
         for contact in self._self_contacts:
             contact.attach(form, u, self.kinematics.volume_weight())
         if self._self_contacts:
             self._contact_displacement = displacement_of(self._contact_state)
 
     def _update_self_contacts(self, x) -> None:
-        """The self-contact pairs of the state ``x``: before every evaluation of the form there."""
+        """The self-contact pairs of the state ``x``: before every evaluation of the form there.
+        Newton evaluates residual and tangent at the same state; the pairs are searched once per
+        state (a new search also re-creates the matrix graph, so the tangent is re-allocated)."""
         if not self._self_contacts:
             return
         self.form  # built: the contact state exists
+        values = x.FV().NumPy()
+        if self._paired_state is not None and np.array_equal(values, self._paired_state):
+            return
         self._contact_state.vec.data = x
         for contact in self._self_contacts:
             contact.update(self._contact_displacement)
+        self._paired_state = values.copy()
 
     def with_surface_energies(self, energy, u):
         """``energy`` plus the surface energies declared with ``add_surface_energy``."""
