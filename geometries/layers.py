@@ -11,7 +11,11 @@ each vertical line in proportion, so the bottom stays flat:
   ``cos(2 pi y / wavelength)``);
 * ``wavelength`` and ``seed``: a random sum of Fourier modes that fit the width (and
   depth) a whole number of times, with wavelengths ``>= wavelength``, scaled so that
-  ``max |w| = amplitude``; reproducible from ``seed``.
+  ``max |w| = amplitude``; reproducible from ``seed``;
+* ``wavelength``, ``seed`` and ``mirror=True``: the same with the modes
+  ``cos(pi m x / width)`` (3D: times ``cos(pi n y / depth)``), wavelengths ``2 width / m
+  >= wavelength``: zero slope at the sides, so the cell is the half period between two
+  mirror planes of a pattern that is symmetric about them.
 
 The imperfection is applied to the mesh nodes, so the mesh carries its piecewise
 linear interpolant (error ``~ amplitude (h / wavelength)^2``); the geometry object is
@@ -49,8 +53,10 @@ Profile = Callable[..., np.ndarray]
 
 
 def _imperfection(amplitude: float, wavelength: float | None, seed: int | None,
-                  lengths: tuple[float, ...]) -> tuple[Profile | None, float]:
+                  lengths: tuple[float, ...], mirror: bool = False) -> tuple[Profile | None, float]:
     """Surface profile ``w(*coords)`` (None if flat) and its exact integral."""
+    if mirror and seed is None:
+        raise ValueError("mirror=True needs a seed (it selects the random mirror-symmetric modes)")
     if amplitude == 0.0:
         return None, 0.0
     if wavelength is None:
@@ -64,22 +70,25 @@ def _imperfection(amplitude: float, wavelength: float | None, seed: int | None,
 
         integral = amplitude * math.prod(math.sin(k * length) / k for length in lengths)
         return cosine, integral
-    require_below("wavelength", wavelength, "the smallest side", min(lengths),
-                  inclusive=True)
-    # every mode fits a whole number of times, so each integrates to zero
-    counts = [int(length / wavelength) for length in lengths]
+    # a mode m_i along side L_i has wavelength L_i / m_i (periodic) or 2 L_i / m_i (mirror)
+    periods = [2 * length if mirror else length for length in lengths]
+    require_below("wavelength", wavelength, "twice the smallest side" if mirror else "the smallest side",
+                  min(periods), inclusive=True)
+    # every mode fits a whole number of (half) periods, so each integrates to zero
+    counts = [int(period / wavelength) for period in periods]
     modes = [m for m in np.ndindex(*(c + 1 for c in counts))
-             if any(m) and math.hypot(*(mi / li for mi, li in zip(m, lengths)))
+             if any(m) and math.hypot(*(mi / pi for mi, pi in zip(m, periods)))
              <= 1 / wavelength + 1e-12]
     rng = np.random.default_rng(seed)
     weights = rng.standard_normal(len(modes))
-    phases = rng.uniform(0, 2 * math.pi, (len(modes), len(lengths)))
+    phases = np.zeros((len(modes), len(lengths))) if mirror else \
+        rng.uniform(0, 2 * math.pi, (len(modes), len(lengths)))
 
     def raw(*coords: np.ndarray) -> np.ndarray:
         total = 0.0
         for m, a, ph in zip(modes, weights, phases):
-            total = total + a * np.prod([np.cos(2 * math.pi * mi * c / li + p)
-                                         for mi, c, li, p in zip(m, coords, lengths, ph)],
+            total = total + a * np.prod([np.cos(2 * math.pi * mi * c / pi + p)
+                                         for mi, c, pi, p in zip(m, coords, periods, ph)],
                                         axis=0)
         return total
 
@@ -113,12 +122,12 @@ def _apply(ngmesh, profile: Profile | None, thickness: float, dim: int) -> None:
 def layer_plane(*, width: float, thickness: float, maxh: float,
                 top_maxh: float | None = None, grading: float = 0.3,
                 amplitude: float = 0.0, wavelength: float | None = None,
-                seed: int | None = None, quad: bool = False,
+                seed: int | None = None, mirror: bool = False, quad: bool = False,
                 corner_maxh: float | None = None, corner_length: float | None = None) -> MeshBundle:
     """Plane-strain layer ``[0, width] x [0, thickness]`` on a substrate at y = 0.
 
     ``|amplitude| < thickness``; ``wavelength > 0`` is needed when ``amplitude != 0``
-    (and ``<= width`` with a ``seed``).  Region ``"gel"``; boundaries ``"bottom"``,
+    (and ``<= width`` with a ``seed``, ``<= 2 width`` with ``mirror``).  Region ``"gel"``; boundaries ``"bottom"``,
     ``"top"``, ``"left"``, ``"right"``.
 
     ``corner_maxh`` with ``corner_length``: a finer size on the part ``x < corner_length``
@@ -128,7 +137,7 @@ def layer_plane(*, width: float, thickness: float, maxh: float,
     """
     width = require_positive("width", width)
     top_h = _top_size(thickness, maxh, top_maxh, amplitude)
-    profile, integral = _imperfection(amplitude, wavelength, seed, (width,))
+    profile, integral = _imperfection(amplitude, wavelength, seed, (width,), mirror)
     if (corner_maxh is None) != (corner_length is None):
         raise ValueError("corner_maxh and corner_length go together, got "
                          f"corner_maxh={corner_maxh!r}, corner_length={corner_length!r}")
@@ -150,7 +159,7 @@ def layer_plane(*, width: float, thickness: float, maxh: float,
                       exact_measure=area,
                       params=dict(width=width, thickness=thickness, maxh=maxh,
                                   top_maxh=top_maxh, grading=grading, amplitude=amplitude,
-                                  wavelength=wavelength, seed=seed, quad=quad,
+                                  wavelength=wavelength, seed=seed, mirror=mirror, quad=quad,
                                   corner_maxh=corner_maxh, corner_length=corner_length),
                       boundaries=RECTANGLE_BOUNDARIES, regions=(GEL,),
                       region_measures={GEL: area})
@@ -159,17 +168,17 @@ def layer_plane(*, width: float, thickness: float, maxh: float,
 def layer_solid(*, width: float, depth: float, thickness: float, maxh: float,
                 top_maxh: float | None = None, grading: float = 0.3,
                 amplitude: float = 0.0, wavelength: float | None = None,
-                seed: int | None = None) -> MeshBundle:
+                seed: int | None = None, mirror: bool = False) -> MeshBundle:
     """3D layer ``[0, width] x [0, depth] x [0, thickness]`` on a substrate at z = 0.
 
     Parameters as in :func:`layer_plane` (``wavelength <= min(width, depth)`` with a
-    ``seed``).  Region ``"gel"``; boundaries ``"bottom"``, ``"top"``, ``"left"``,
+    ``seed``, ``<= 2 min(width, depth)`` with ``mirror``).  Region ``"gel"``; boundaries ``"bottom"``, ``"top"``, ``"left"``,
     ``"right"``, ``"front"``, ``"back"``.
     """
     width = require_positive("width", width)
     depth = require_positive("depth", depth)
     top_h = _top_size(thickness, maxh, top_maxh, amplitude)
-    profile, integral = _imperfection(amplitude, wavelength, seed, (width, depth))
+    profile, integral = _imperfection(amplitude, wavelength, seed, (width, depth), mirror)
     box = named_box((0.0, 0.0, 0.0), (width, depth, thickness))
     box.faces.Max(occ.Z).maxh = top_h
     geometry = occ.OCCGeometry(box)
@@ -180,6 +189,6 @@ def layer_solid(*, width: float, depth: float, thickness: float, maxh: float,
                       exact_measure=volume, exact_volume=volume,
                       params=dict(width=width, depth=depth, thickness=thickness, maxh=maxh,
                                   top_maxh=top_maxh, grading=grading, amplitude=amplitude,
-                                  wavelength=wavelength, seed=seed),
+                                  wavelength=wavelength, seed=seed, mirror=mirror),
                       boundaries=BLOCK_BOUNDARIES, regions=(GEL,),
                       region_measures={GEL: volume})

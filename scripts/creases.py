@@ -5,9 +5,14 @@ rigid substrate and immersed at its top at t = 0 (``mu`` ramped from ``mu0`` to 
 The computational cell is ``[0, W] x [0, H]`` with roller sides, which are mirror planes (zero
 flux, no shear): the cell is half a period ``2 W`` of a periodic crease pattern. A surface
 imperfection ``-a cos(pi x / W)`` puts a shallow trough on the left mirror line, where a crease
-nucleates. The crease faces meet on the mirror line: their self-contact is contact with that plane
-(penalty, ``ngsgel.contact``); every step checks that the surface neither crosses the mirror planes
-(beyond the penalty's penetration, reported) nor itself.
+nucleates (``--seed``: a random mirror-symmetric imperfection instead, for wide cells where the
+pattern chooses its own spacing). The faces of a crease on a mirror line meet on it: their
+self-contact is contact with that plane (penalty, ``ngsgel.contact.plane_contact``); creases
+anywhere else close on the general self-contact of the top (``ngsgel.contact.SelfContact``, the
+same penalty; ``--no-self-contact`` leaves it out). Every step checks that the surface neither
+crosses the mirror planes (beyond the penalty's penetration, reported) nor itself: faces held by
+the penalty overlap by a thin sliver (its width is reported); a loop wider than ``overlap_limit``
+surface elements is a crossing, and the run stops there.
 
 Per run (``--out``): step history (``history.csv``: time, dt, Newton, solvent uptake, balance
 error, swollen depth, surface-layer stretch ratio, groove and crease depth, contact length,
@@ -50,7 +55,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain  # noqa: E402
-from ngsgel.contact import crossing_pairs, plane_contact, surface_line  # noqa: E402
+from ngsgel.contact import crossing_loops, plane_contact, surface_line  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
 from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
 from ngsgel.surface import surface_tension as surface_tension_density  # noqa: E402
@@ -61,6 +66,10 @@ from ngsgel.transient import TransientError, TransientProblem, march, time_ramp 
 
 BIOT_RATIO = 3.383  # Biot (1963): incompressible neo-Hookean half-space, plane strain, lam2/lam1 at wrinkling
 CREASE_RATIO = 2.4  # Hong, Zhao & Suo (2009): energetic crease threshold, lam2/lam1 (strain 0.35)
+# A crossed loop spanning at most this many surface elements, with no loop inside it, is the
+# unresolved bottom of a closed crease (the fold of the tip through itself; 3 elements measured
+# at a closed interior crease, tests/test_creases.py)
+TIP_LOBE_EDGES = 4
 # Default surface energy of the gel-solvent interface, gamma / (G H) (the elastocapillary length
 # gamma/G over the layer thickness); see docs/creases.md for physical numbers. 0: no surface energy.
 SURFACE_TENSION = 0.02
@@ -76,7 +85,11 @@ class Setup:
     mu0: float = -0.5
     thickness: float = 1.0
     width: float = 0.2
-    amplitude: float = 0.01  # of the trough, as a fraction of the width W
+    amplitude: float = 0.01  # of the trough (or max |w| of the random imperfection), as a fraction of the width W
+    # random mirror-symmetric imperfection (modes cos(pi m x / W) with 2 W / m >= wavelength)
+    # instead of the trough; None: the trough on the left mirror line
+    seed: int | None = None
+    wavelength: float = 0.1
     top_h: float = 0.01  # element size on the surface
     # finer surface size on the part x < tip_length of the top, where the crease tip on the mirror
     # line x = 0 forms (None: top_h everywhere); the onset is set by the resolution there
@@ -88,6 +101,10 @@ class Setup:
     threads: bool = False  # NGSolve TaskManager (on a shared 2-core machine it was slower)
     viscosity: float = 1e-3  # pseudo-viscous stabiliser eta / G (time units H^2/D, per unit area)
     surface_tension: float = SURFACE_TENSION  # gamma / (G H): elastocapillary length over thickness
+    self_contact: bool = True  # general self-contact of the top (creases off the mirror lines)
+    # a self-crossing loop (surface_state) wider than this many surface elements is a crossing,
+    # not the penalty's overlap of two faces in contact (~0.03 elements at penalty 1e3)
+    overlap_limit: float = 0.1
 
     @property
     def gamma(self) -> float:
@@ -99,12 +116,17 @@ class Setup:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        for name in ("Nv", "thickness", "width", "top_h", "maxh", "penalty", "ramp"):
+        for name in ("Nv", "thickness", "width", "top_h", "maxh", "penalty", "ramp", "wavelength", "overlap_limit"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         if not 0 <= self.amplitude < 0.5:
             raise ValueError(f"amplitude must be in [0, 0.5) (a fraction of the width), got {self.amplitude!r}")
+        if self.seed is not None:
+            if not (isinstance(self.seed, int) and self.seed >= 0):
+                raise ValueError(f"seed must be None or an integer >= 0, got {self.seed!r}")
+            if not self.wavelength <= 2 * self.width:
+                raise ValueError(f"wavelength must be <= 2 width = {2 * self.width:g}, got {self.wavelength!r}")
         if not self.mu0 < 0:
             raise ValueError(f"mu0 must be < 0 (dry-ish start; the bath is at mu = 0), got {self.mu0!r}")
         if not self.top_h <= self.width / 4:
@@ -139,8 +161,12 @@ class Setup:
     def mesh(self, *, imperfect: bool = True) -> ngs.Mesh:
         a = self.amplitude * self.width if imperfect else 0.0
         corner = {} if self.tip_h is None else {"corner_maxh": self.tip_h, "corner_length": self.tip_length}
+        if self.seed is None:
+            shape = {"amplitude": -a, "wavelength": 2 * self.width if a else None}
+        else:
+            shape = {"amplitude": a, "wavelength": self.wavelength, "seed": self.seed, "mirror": True}
         return layer_plane(width=self.width, thickness=self.thickness, maxh=self.maxh, top_maxh=self.top_h,
-                           amplitude=-a, wavelength=2 * self.width if a else None, **corner).mesh
+                           **shape, **corner).mesh
 
     def add_surface_tension(self, prob) -> None:
         """Surface energy ``gamma |F' t|`` on the top (none when ``surface_tension`` is 0)."""
@@ -152,6 +178,10 @@ class Setup:
         k = self.penalty * self.gel.shear_modulus(self.lam0) / self.surface_h
         prob.add_surface_energy("top", plane_contact(component=0, position=0.0, side=1, penalty=k))
         prob.add_surface_energy("top", plane_contact(component=0, position=self.width, side=-1, penalty=k))
+        if self.self_contact:
+            # k/4 per face: both faces are masters and the gap is twice a mirror image's
+            # distance to its plane, so this is the mirror lines' penalty (ngsgel.contact)
+            prob.add_self_contact("top", penalty=k / 4)
 
 
 # ----------------------------------------------------------------------------- diagnostics
@@ -174,15 +204,36 @@ def tip_geometry(x: np.ndarray, y: np.ndarray, points_per_edge: int = 4) -> tupl
 
 def surface_state(prob, setup: Setup) -> dict:
     """Geometry of the deformed surface: crease (contact) on either mirror line, groove depth,
-    penetration of the mirror planes, self-crossings, creases of the mirrored profile."""
-    line = surface_line(prob.displacement, prob.mesh, "top")
+    penetration of the mirror planes, faces in self-contact and self-crossings, creases of the
+    mirrored profile."""
+    per_edge = 4
+    line = surface_line(prob.displacement, prob.mesh, "top", points_per_edge=per_edge)
     X, x, y = line.reference[:, 0], line.current[:, 0], line.current[:, 1]
-    W = setup.width
-    pairs = crossing_pairs(line.current)
-    out = {"penetration": max(0.0, -float(x.min()), float(x.max()) - W) / line.edge_length,
-           "self_crossings": len(pairs),
+    W, h = setup.width, line.edge_length
+    # With self-contact, faces pressed together overlap by the penalty's thin sliver (a contact),
+    # and a closed crease ends in a crossed lobe where its bottom folds within a few elements,
+    # which P2 edges cannot do without looping (the unresolved tip; docs/creases.md); any other
+    # loop is a crossing. Without self-contact every loop is a crossing.
+    slivers, tips, crossed = [], [], []
+    for loop in crossing_loops(line.current):
+        if setup.self_contact and loop.width <= setup.overlap_limit * h:
+            slivers.append(loop)
+        elif setup.self_contact and loop.innermost and loop.last - loop.first <= TIP_LOBE_EDGES * per_edge:
+            tips.append(loop)
+        else:
+            crossed.append(loop)
+    out = {"penetration": max(0.0, -float(x.min()), float(x.max()) - W) / h,
+           "overlap": max((loop.width / h for loop in slivers), default=0.0),  # widest sliver, in elements
+           "self_contacts": len(slivers),
+           # reference x of the first closed crease held by the self-contact
+           "contact_X": float(X[slivers[0].first]) if slivers else float("nan"),
+           "tip_lobes": len(tips),
+           "tip_lobe_width": max((loop.width / h for loop in tips), default=0.0),
+           "tip_lobe_area": max((loop.area / h**2 for loop in tips), default=0.0),
+           "tip_X": float(X[tips[0].first]) if tips else float("nan"),
+           "self_crossings": len(crossed),
            # reference x of the first crossing (where the surface passed through itself)
-           "crossing_X": float(X[pairs[0][0]]) if pairs else float("nan")}
+           "crossing_X": float(X[crossed[0].first]) if crossed else float("nan")}
     for side, inner, plane in (("left", X > 0, x <= 0.0), ("right", X < W, x >= W)):
         tip = 0 if side == "left" else -1
         touching = inner & plane
@@ -206,11 +257,23 @@ def surface_state(prob, setup: Setup) -> dict:
     return out
 
 
+def reference_top(mesh: ngs.Mesh, x: float) -> float:
+    """Height of the top boundary at ``x`` in the reference (the mesh, imperfection included):
+    the straight edge over ``x``."""
+    for el in mesh.Elements(ngs.BND):
+        if el.mat == "top":
+            (xa, ya), (xb, yb) = (mesh[v].point for v in el.vertices)
+            if min(xa, xb) <= x <= max(xa, xb):
+                return ya + (yb - ya) * (x - xa) / (xb - xa)
+    raise ValueError(f"x = {x!r} is not under the top boundary")
+
+
 def swelling_state(prob, setup: Setup, n: int = 201) -> dict:
     """Away from the crease (x = W/2): depth of the swollen zone (``mu`` above ``mu0 / 2``), in
     reference and current lengths, and the thickness-over-lateral stretch ratio at the surface
     and averaged over the swollen zone (stretches from dry: ``lam0 F'``)."""
-    H, W = setup.thickness, setup.width
+    W = setup.width
+    H = reference_top(prob.mesh, W / 2)  # the layer's thickness there, imperfection included
     eps = 1e-6 * H
     F = prob.deformation_gradient(prob.displacement)
     ratio_cf = F[1, 1] / F[0, 0]
@@ -281,7 +344,8 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
     outputs = list(np.geomspace(max(10 * setup.ramp, 1e-4), t_end, 12)[:-1])
     rows, profiles = [], {}
     state = {"onset": None, "stop_at": t_end, "max_penetration": 0.0, "max_crossings": 0, "dissipation": 0.0,
-             "interior": None, "sharpening": None}
+             "interior": None, "sharpening": None, "max_overlap": 0.0, "max_self_contacts": 0,
+             "max_tip_lobe_width": 0.0, "max_tip_lobe_area": 0.0}
     # A mesh-converging onset measure (docs/creases.md): the time at which the groove bottom has
     # sharpened to a tip radius of l/4 (l = gamma/G the elastocapillary length), interpolated
     # linearly in the radius between steps; the contact time itself drifts with the tip mesh.
@@ -301,6 +365,10 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
             state["max_penetration"] = surf["penetration"]
             state["max_penetration_time"] = rec.time
         state["max_crossings"] = max(state["max_crossings"], surf["self_crossings"])
+        state["max_overlap"] = max(state["max_overlap"], surf["overlap"])
+        state["max_self_contacts"] = max(state["max_self_contacts"], surf["self_contacts"])
+        state["max_tip_lobe_width"] = max(state["max_tip_lobe_width"], surf["tip_lobe_width"])
+        state["max_tip_lobe_area"] = max(state["max_tip_lobe_area"], surf["tip_lobe_area"])
         radius = surf["tip_radius"] if surf["tip_radius"] > 0 else math.inf  # <= 0: not a groove bottom
         if sharp_radius > 0 and state["sharpening"] is None and radius <= sharp_radius and len(rows) > 1:
             before = rows[-2]["tip_radius"] if rows[-2]["tip_radius"] > 0 else math.inf
@@ -310,14 +378,16 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
             state["sharpening"] = {"time": t_sharp, "previous_time": t0, "step_time": t1, "radius": sharp_radius,
                                    "swollen_depth": swell["swollen_depth"], "surface_ratio": swell["surface_ratio"],
                                    "groove_depth": surf["groove_depth"]}
-        creased = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
+        on_mirror = surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0
+        creased = on_mirror or surf["self_contacts"] > 0 or surf["tip_lobes"] > 0
         interior = surf["self_crossings"] > 0
         near_mirror = min(surf["crossing_X"], setup.width - surf["crossing_X"]) < 2 * setup.surface_h if interior else False
         if interior:
             # The surface passed through itself within this step: next to a mirror line the crease
             # there closed but its faces crossed inside the first two surface elements (the curved
             # P2 edge at the singular tip looped through itself before reaching the plane, where
-            # the penalty acts) -- an onset; elsewhere faces met where no contact is modelled.
+            # the penalty acts) -- an onset; elsewhere faces met where no contact is modelled
+            # (self-contact off) or passed through the self-contact's penalty within one step.
             # Either way the run cannot go on honestly: record and stop.
             row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
             where = f"reference x = {surf['crossing_X']:.4f}"
@@ -328,8 +398,9 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                          f"{swell['swollen_depth']:.4f}; stopping, the faces crossed at the tip")
             else:
                 state["interior"] = row
-                progress(f"INTERIOR CREASE (faces met off the mirror lines, {where}) at t = {rec.time:.4e}: swollen "
-                         f"depth {swell['swollen_depth']:.4f}; stopping, self-contact there is not modelled")
+                why = "they passed through the self-contact" if setup.self_contact else "self-contact is off"
+                progress(f"FACES CROSSED off the mirror lines ({where}) at t = {rec.time:.4e}: swollen "
+                         f"depth {swell['swollen_depth']:.4f}; stopping, {why}")
             profiles[rec.time] = (x, y)
             if series:
                 series.write(rec.time)
@@ -337,11 +408,13 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
         if creased and state["onset"] is None:
             # the faces met during this step: onset lies in (previous step, this step]
             row["previous_time"] = rows[-2]["time"] if len(rows) > 1 else 0.0
-            row["onset_kind"] = "contact on the mirror line"
+            row["onset_kind"] = ("contact on the mirror line" if on_mirror else
+                                 f"self-contact at reference x = {surf['contact_X']:.4f}" if surf["self_contacts"]
+                                 else f"crease tip folded at reference x = {surf['tip_X']:.4f}")
             state["onset"] = row
             state["stop_at"] = min(t_end, after_onset * rec.time)
             profiles[rec.time] = (x, y)
-            progress(f"CREASE ONSET at t = {rec.time:.4e}: swollen depth {swell['swollen_depth']:.4f}, "
+            progress(f"CREASE ONSET ({row['onset_kind']}) at t = {rec.time:.4e}: swollen depth {swell['swollen_depth']:.4f}, "
                      f"surface ratio {swell['surface_ratio']:.3f}, skin ratio {swell['skin_ratio']:.3f}")
         if rec.output or (state["onset"] is not None and rec.time >= state["stop_at"]):
             profiles[rec.time] = (x, y)
@@ -349,7 +422,8 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                 series.write(rec.time)
         progress(f"t = {rec.time:9.3e} dt = {rec.dt:8.2e} N {rec.iterations:2d} depth {swell['swollen_depth']:.3f} "
                  f"groove {surf['groove_depth']:.4f} crease {surf['crease_depth_left']:.4f} "
-                 f"pen {surf['penetration']:.1e} bal {rec.relative_balance_error:.1e}")
+                 f"pen {surf['penetration']:.1e} creases {surf['creases_per_period']} closed {surf['self_contacts']} "
+                 f"bal {rec.relative_balance_error:.1e}")
         if state["onset"] is not None and rec.time >= state["stop_at"]:
             raise _Stop()
 
@@ -362,7 +436,8 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                   output_times=outputs, on_step=on_step)
         except _Stop:
             if state["interior"] is not None:
-                message = "stopped: interior crease (self-contact off the mirror lines not modelled)"
+                message = ("stopped: faces crossed off the mirror lines " +
+                           ("through the self-contact" if setup.self_contact else "(self-contact off)"))
             elif state["onset"]["onset_kind"].startswith("tip"):
                 message = "stopped at onset: the crease faces crossed at the tip, next to the mirror line"
             else:
@@ -387,12 +462,15 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                    "groove_depth", "creases_per_period", "crease_spacing", "crossing_X")},
                "final": None if not rows else {k: rows[-1][k] for k in (
                    "time", "swollen_depth", "groove_depth", "crease_depth_left", "crease_depth_right",
-                   "creases_per_period", "crease_spacing")},
+                   "creases_per_period", "crease_spacing", "self_contacts")},
                "max_relative_balance_error": max(balance) if balance else None,
                "cumulative_balance_error_relative": (sum(uptake_err) / abs(total_uptake)) if total_uptake else None,
                "viscous_dissipation": state["dissipation"],
                "network_energy_scale": setup.gel.shear_modulus(setup.lam0) * setup.width * setup.thickness,
                "max_penetration_over_h": state["max_penetration"], "max_self_crossings": state["max_crossings"],
+               "max_overlap_over_h": state["max_overlap"], "max_self_contacts": state["max_self_contacts"],
+               "max_tip_lobe_width_over_h": state["max_tip_lobe_width"],
+               "max_tip_lobe_area_over_h2": state["max_tip_lobe_area"],
                "tip_sharpening": state["sharpening"],
                "max_penetration_time": state.get("max_penetration_time"),
                "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO}
@@ -536,6 +614,10 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
             history.append(path[-1])
         if surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0:
             found.update(mu=mu, ratio=setup.ratio(mu), how="contact")
+            return True
+        if surf["self_contacts"] > 0 or surf["tip_lobes"] > 0:
+            where = surf["contact_X"] if surf["self_contacts"] else surf["tip_X"]
+            found.update(mu=mu, ratio=setup.ratio(mu), how=f"self-contact at reference x = {where:.4f}")
             return True
         if surf["self_crossings"] > 0:  # the faces met by crossing at the tip (or elsewhere): stop there too
             found.update(mu=mu, ratio=setup.ratio(mu), how=f"faces crossed at reference x = {surf['crossing_X']:.4f}")
@@ -689,7 +771,16 @@ def main(argv=None) -> dict:
     parser.add_argument("--mu0", type=float, default=Setup.mu0)
     parser.add_argument("--width", type=float, default=Setup.width, help="cell width W (half the crease period)")
     parser.add_argument("--thickness", type=float, default=Setup.thickness)
-    parser.add_argument("--amplitude", type=float, default=Setup.amplitude, help="trough depth / W")
+    parser.add_argument("--amplitude", type=float, default=Setup.amplitude,
+                        help="trough depth / W (with --seed: max |w| / W of the random imperfection)")
+    parser.add_argument("--seed", type=int, default=None, help="random mirror-symmetric imperfection "
+                        "(modes cos(pi m x / W)) instead of the trough on the left mirror line")
+    parser.add_argument("--wavelength", type=float, default=Setup.wavelength,
+                        help="--seed: shortest wavelength of the random imperfection")
+    parser.add_argument("--no-self-contact", action="store_true",
+                        help="leave out the self-contact of the top (creases off the mirror lines then stop the run)")
+    parser.add_argument("--after-onset", type=float, default=None,
+                        help="march until this multiple of the onset time (default 1.5; 1.2 with --quick)")
     parser.add_argument("--crease-meshes", default="", help="--equilibrium: surface sizes for the crease threshold "
                         "(default: the middle two of the linear-threshold meshes)")
     parser.add_argument("--amplitudes", default="0.1,0.03,0.01", help="--equilibrium: imperfections (a/W) for the crease threshold")
@@ -713,7 +804,8 @@ def main(argv=None) -> dict:
     setup = Setup(Nv=args.Nv, chi=args.chi, mu0=args.mu0, thickness=args.thickness, width=args.width,
                   amplitude=args.amplitude, top_h=top_h, tip_h=args.tip_h, tip_length=args.tip_length, maxh=max(args.maxh, top_h) if quick else args.maxh,
                   penalty=args.penalty, ramp=args.ramp, viscosity=args.viscosity,
-                  surface_tension=args.surface_tension)
+                  surface_tension=args.surface_tension, seed=args.seed, wavelength=args.wavelength,
+                  self_contact=not args.no_self_contact)
     setup.check()
     if args.equilibrium:
         meshes = [0.04, 0.02] if quick else [0.02, 0.01, 0.005, 0.0025]  # crease: the middle two
@@ -733,7 +825,7 @@ def main(argv=None) -> dict:
         rows = run_study(base, args.out, cases=cases, t_end=args.t_end, dt_max=args.dt_max)
         return {"study": rows}
     summary = run_transient(setup, args.out, t_end=args.t_end, dt_max=args.dt_max,
-                            after_onset=1.2 if quick else 1.5)
+                            after_onset=args.after_onset or (1.2 if quick else 1.5))
     onset = summary["onset"]
     print("no crease onset before t_end" if onset is None else
           f"crease onset at t = {onset['time']:.4e}: swollen depth {onset['swollen_depth']:.4f} (reference), "

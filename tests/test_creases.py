@@ -13,7 +13,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
 import creases  # noqa: E402
 from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp  # noqa: E402
-from ngsgel.contact import SelfContact, plane_contact, self_intersections, surface_line  # noqa: E402
+from ngsgel.contact import SelfContact, crossing_loops, plane_contact, self_intersections, surface_line  # noqa: E402
 from ngsgel.surface import surface_tension  # noqa: E402
 from ngsgel.transient import march  # noqa: E402
 from netgen import occ  # noqa: E402
@@ -135,6 +135,32 @@ def test_self_intersections_counts_a_crossing_fold():
     assert self_intersections(np.array([[0, 0], [1, 0], [2, 0.1], [3, 0]])) == 0
 
 
+def test_crossing_loops_tell_a_penalty_sliver_from_a_crossing():
+    # faces overlapping by d over a length L (a rectangle L x d between the crossing and the tip):
+    # width 2 A / P = 2 L d / (2 L + 2 d); a crossing fold cuts off a lobe as wide as the fold
+    d, L = 1e-3, 0.9
+    sliver = np.array([[-1, 1.0], [0, 1], [0, 0.5], [0, 0], [-d, 0], [-d, 0.5], [-d, L], [1, L]])
+    (loop,) = crossing_loops(sliver)
+    assert loop.width == pytest.approx(2 * L * d / (2 * L + 2 * d), rel=1e-12)
+    assert loop.area == pytest.approx(L * d, rel=1e-12) and loop.innermost
+    folded = np.array([[0, 0], [1, 0], [1, 1], [0.5, -0.5], [2, -1.0]])
+    (lobe,) = crossing_loops(folded)
+    assert lobe.width > 0.1  # the triangle cut off at (5/6, 0)
+    assert crossing_loops(np.array([[0, 0], [1, 0], [2, 0.1], [3, 0]])) == []
+
+
+def test_crossing_loops_cut_a_crossed_tip_out_of_its_sliver():
+    # a sliver (faces x = 0 and x = -d overlapping from y = 0.3 to 0.9) ending in a crossed lobe
+    # (the bottom folded through itself): the sliver's width is the overlap, the lobe is apart
+    d = 1e-3
+    line = np.array([[-1, 1.0], [0, 1], [0, 0.3], [-0.1, 0], [0.1, 0], [-d, 0.3], [-d, 0.9], [1, 0.9]])
+    sliver, lobe = crossing_loops(line)
+    assert (sliver.first, sliver.last, lobe.first, lobe.last) == (1, 6, 2, 4)
+    assert not sliver.innermost and lobe.innermost
+    assert sliver.width == pytest.approx(d, rel=0.02)
+    assert lobe.width > 50 * d
+
+
 def test_fold_estimate_extrapolates_the_vanishing_eigenvalue():
     """Near a fold lambda ~ sqrt(mu_c - mu): two states on lambda = sqrt(mu_c - mu) give mu_c."""
     mu_c = -0.004
@@ -253,6 +279,35 @@ def test_self_contact_closes_an_interior_crease_as_the_mirror_plane_does():
     left = ref[:, 0] < W
     overlap = max(x_of_face(left, y) - x_of_face(~left, y) for y in heights)
     assert penetration > 0 and overlap == pytest.approx(2 * penetration, rel=0.1)
+    # the scene's stop rule: this closed crease is one sliver, thinner than its widest overlap and
+    # far below the limit (in surface elements) past which a loop counts as a crossing
+    sliver, tip = crossing_loops(cur)
+    assert 0.3 * overlap < sliver.width <= overlap
+    assert sliver.width / line.edge_length < 0.1 * setup.overlap_limit
+    # the crease's bottom, folded through itself within 3 elements (P2 edges cannot make the hairpin)
+    assert tip.innermost and tip.last - tip.first <= 4 * creases.TIP_LOBE_EDGES
+    assert 0.1 < tip.width / line.edge_length < 0.5
+    surf = creases.surface_state(full, creases.Setup(**{**setup.__dict__, "width": 2 * W}))
+    assert (surf["self_contacts"], surf["tip_lobes"], surf["self_crossings"]) == (1, 1, 0)
+    assert surf["contact_X"] < W < surf["contact_X"] + 0.1
+
+
+def test_self_contact_leaves_an_open_groove_with_a_sharp_bottom_alone():
+    # The half cell's groove bends by ~100 degrees within one element at its bottom before it
+    # closes on the mirror plane (ratio 2.53, a/W = 0.1): the closest-point search pairs the two
+    # elements across that bend obliquely with a positive "gap" and switches them on and off
+    # between Newton iterates; unweighted, the ramp stalled there (residual 2e-8, mu -0.01209).
+    # Weighted by how squarely the pairs face each other, nothing acts: the same states as
+    # without self-contact.
+    setup = creases.Setup(amplitude=0.1, top_h=0.01, maxh=0.05, surface_tension=0.02)
+    mu = brentq(lambda m: setup.ratio(m) - 2.53, setup.mu0, 0.0, xtol=1e-12)
+    energies = []
+    for self_contact in (False, True):
+        prob = creases.build_equilibrium(creases.Setup(**{**setup.__dict__, "self_contact": self_contact}),
+                                         imperfect=True, contact=True)
+        ramp(prob, prob.mu, mu, step=0.05)
+        energies.append(prob.energy())
+    assert energies[1] == energies[0]
 
 
 def test_self_contact_input_is_checked_before_any_solve():

@@ -253,6 +253,24 @@ def test_random_imperfection_reproducible():
     assert measure(a) == pytest.approx(a.exact_measure, rel=2e-3)
 
 
+def test_mirror_random_imperfection_is_symmetric_about_the_sides():
+    # mirror=True: a half period between mirror planes, so w(-x) = w(x) and w(W + x) = w(W - x)
+    from geometries.layers import _imperfection
+    W = 0.6
+    profile, integral = _imperfection(0.01, 0.1, 3, (W,), mirror=True)
+    x = np.linspace(0.0, 0.05, 11)
+    np.testing.assert_allclose(profile(-x), profile(x), atol=1e-15)
+    np.testing.assert_allclose(profile(W + x), profile(W - x), atol=1e-15)
+    assert np.abs(profile(np.linspace(0, W, 2001))).max() == pytest.approx(0.01, rel=1e-4)
+    b = g.layer_plane(width=W, thickness=1.0, maxh=0.2, top_maxh=0.02, amplitude=0.01, wavelength=0.1,
+                      seed=3, mirror=True)
+    assert integral == 0.0 and measure(b) == pytest.approx(W, rel=1e-4)
+    periodic, _ = _imperfection(0.01, 0.1, 3, (W,))
+    assert abs(periodic(-x[-1:]) - periodic(x[-1:]))[0] > 1e-4  # random phases: not mirror-symmetric
+    with pytest.raises(ValueError, match="mirror=True needs a seed"):
+        g.layer_plane(width=W, thickness=1.0, maxh=0.2, amplitude=0.01, wavelength=0.1, mirror=True)
+
+
 # ------------------------------------------------------------------ shell vs section -
 
 def test_cap_midsurface_and_section_describe_same_shell():
