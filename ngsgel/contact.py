@@ -22,8 +22,9 @@ renewed at every state the solver evaluates) and adds
 
     W_c = k/2 <g>_+^2   per unit reference boundary,   g = (x_1 - x_2) . n_1,
 
-``x_1`` the point, ``x_2`` its partner, ``n_1`` and ``n_2`` the outward normals there (deformed),
-weighted by how squarely the two points face each other: with
+``x_1`` the point, ``x_2`` its partner, ``n_1`` and ``n_2`` the outward normals there (deformed;
+in 2D functions of the displacement, so that Newton's tangent sees them turn; in 3D NGSolve's
+normals of the state the pairs were searched for), weighted by how squarely the two points face each other: with
 ``c = min((x_1 - x_2) . n_1, -(x_1 - x_2) . n_2) / |x_1 - x_2|`` the weight is 1 for ``c >= 0.9``,
 0 for ``c <= 0.5``, linear between. Two faces pressed together give ``c ~ 1`` (the partner is
 the foot of ``x_1``'s normal, and ``x_1`` lies behind the partner's face). The closest-point
@@ -105,11 +106,19 @@ class SelfContact:
         region = self.mesh.Boundaries(self.boundary)
         contact = ngs.ContactBoundary(region, region, volume=False)
         X = ngs.CF((ngs.x, ngs.y, ngs.z)[:self.mesh.dim])
+        if self.mesh.dim == 2:
+            # normals as functions of u on both sides: Newton sees how they turn (a closed crease:
+            # 28 instead of 50 iterations for a jump, 11 instead of 37 for the next small step)
+            T, N = ngs.specialcf.tangential(2), ngs.specialcf.normal(2)
+            n1 = _deformed_normal(T, N, ngs.Grad(u))
+            n2 = _deformed_normal(T.Other(), N.Other(), ngs.Grad(u).Other())
+        else:  # NGSolve's normals of the displacement the pairs were searched for (fixed in Newton)
+            n1, n2 = contact.normal, contact.normal.Other()
         apart = X + u - (X.Other() + u.Other())
-        gap = apart * contact.normal
+        gap = apart * n1
         # on both faces: the partner is the foot of x_1's normal, and x_1 lies behind the partner's face
         distance = ngs.sqrt(ngs.InnerProduct(apart, apart) + 1e-300)
-        behind = -(apart * contact.normal.Other())
+        behind = -(apart * n2)
         squareness = ngs.IfPos(gap - behind, behind, gap) / distance
         facing = ngs.IfPos(squareness - SQUARE, 1.0, ngs.IfPos(squareness - OBLIQUE, (squareness - OBLIQUE) / (SQUARE - OBLIQUE), 0.0))
         contact.AddEnergy(weight * facing * ngs.IfPos(gap, 0.5 * self.penalty * gap * gap, 0.0))
@@ -119,6 +128,14 @@ class SelfContact:
         if self._contact is None:
             raise RuntimeError("attach the self-contact to a form first")
         self._contact.Update(displacement, self._form, self.intorder, self.maxdist)
+
+
+def _deformed_normal(T, N, grad_u):
+    """Outward unit normal of a deformed 2D boundary: the reference tangent ``T`` carried by
+    ``I + grad u`` and turned by 90 degrees to the side of the reference normal ``N``."""
+    t = T + grad_u * T
+    side = ngs.CF((T[1], -T[0])) * N  # +-1: which way the turn points outward
+    return side * ngs.CF((t[1], -t[0])) / ngs.sqrt(ngs.InnerProduct(t, t))
 
 
 @dataclass(frozen=True, eq=False)

@@ -228,6 +228,7 @@ def test_quick_script_reports_onset(tmp_path):
     assert summary["onset"] is not None, summary["message"]
     assert summary["max_self_crossings"] == 0
     assert summary["max_penetration_over_h"] < 0.05
+    assert summary["max_overlap_over_h"] <= creases.Setup.overlap_limit  # faces held by the self-contact, if any
     assert summary["max_relative_balance_error"] < 1e-6
     saved = json.loads((tmp_path / "summary.json").read_text())
     assert saved["onset"]["time"] == pytest.approx(summary["onset"]["time"])
