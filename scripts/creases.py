@@ -86,8 +86,12 @@ class Setup:
     thickness: float = 1.0
     width: float = 0.2
     amplitude: float = 0.01  # of the trough (or max |w| of the random imperfection), as a fraction of the width W
+    # where the trough lies: "mirror" (-a cos(pi x / W): on the left mirror line, the crease
+    # closes on that plane) or "centre" (a cos(2 pi x / W): at x = W / 2, the crease closes on
+    # itself - the mirror cell of half the width, mirrored; a check of the self-contact)
+    trough: str = "mirror"
     # random mirror-symmetric imperfection (modes cos(pi m x / W) with 2 W / m >= wavelength)
-    # instead of the trough; None: the trough on the left mirror line
+    # instead of the trough; None: the trough
     seed: int | None = None
     wavelength: float = 0.1
     top_h: float = 0.01  # element size on the surface
@@ -122,6 +126,8 @@ class Setup:
                 raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
         if not 0 <= self.amplitude < 0.5:
             raise ValueError(f"amplitude must be in [0, 0.5) (a fraction of the width), got {self.amplitude!r}")
+        if self.trough not in ("mirror", "centre"):
+            raise ValueError(f"trough must be 'mirror' or 'centre', got {self.trough!r}")
         if self.seed is not None:
             if not (isinstance(self.seed, int) and self.seed >= 0):
                 raise ValueError(f"seed must be None or an integer >= 0, got {self.seed!r}")
@@ -161,8 +167,10 @@ class Setup:
     def mesh(self, *, imperfect: bool = True) -> ngs.Mesh:
         a = self.amplitude * self.width if imperfect else 0.0
         corner = {} if self.tip_h is None else {"corner_maxh": self.tip_h, "corner_length": self.tip_length}
-        if self.seed is None:
+        if self.seed is None and self.trough == "mirror":
             shape = {"amplitude": -a, "wavelength": 2 * self.width if a else None}
+        elif self.seed is None:
+            shape = {"amplitude": a, "wavelength": self.width if a else None}
         else:
             shape = {"amplitude": a, "wavelength": self.wavelength, "seed": self.seed, "mirror": True}
         return layer_plane(width=self.width, thickness=self.thickness, maxh=self.maxh, top_maxh=self.top_h,
