@@ -204,6 +204,15 @@ def test_tip_geometry_of_a_parabolic_edge():
     assert angle == pytest.approx(10.0, rel=1e-9) and radius == pytest.approx(0.005, rel=1e-9)
 
 
+def test_trough_lies_where_the_setup_says():
+    for trough, x_low in (("mirror", 0.0), ("centre", 0.1)):
+        setup = creases.Setup(width=0.2, amplitude=0.1, trough=trough, top_h=0.02, maxh=0.05)
+        mesh = setup.mesh()
+        top = [mesh[v].point for el in mesh.Elements(ngs.BND) if el.mat == "top" for v in el.vertices]
+        x, y = min(top, key=lambda p: p[1])
+        assert x == pytest.approx(x_low, abs=setup.top_h) and y == pytest.approx(1 - 0.02, abs=1e-3)
+
+
 def test_bad_input_raises_before_work():
     with pytest.raises(ValueError, match="amplitude"):
         creases.Setup(amplitude=0.7).check()
@@ -215,6 +224,14 @@ def test_bad_input_raises_before_work():
         creases.Setup(surface_tension=-0.01).check()
     with pytest.raises(ValueError, match="tip_h"):
         creases.Setup(tip_h=0.02).check()  # coarser than top_h
+    with pytest.raises(ValueError, match="trough"):
+        creases.Setup(trough="left").check()
+    with pytest.raises(ValueError, match="wavelength"):
+        creases.Setup(seed=1, wavelength=0.5).check()  # > 2 W
+    with pytest.raises(ValueError, match="seed"):
+        creases.Setup(seed=-1).check()
+    with pytest.raises(ValueError, match="overlap_limit"):
+        creases.Setup(overlap_limit=0.0).check()
     with pytest.raises(ValueError, match="corner_maxh and corner_length"):
         layer_plane(width=0.2, thickness=1.0, maxh=0.05, corner_maxh=0.01)
     with pytest.raises(ValueError, match="gamma"):
