@@ -210,7 +210,7 @@ def test_trough_lies_where_the_setup_says():
         mesh = setup.mesh()
         top = [mesh[v].point for el in mesh.Elements(ngs.BND) if el.mat == "top" for v in el.vertices]
         x, y = min(top, key=lambda p: p[1])
-        assert x == pytest.approx(x_low, abs=setup.top_h) and y == pytest.approx(1 - 0.02, abs=1e-3)
+        assert x == pytest.approx(x_low, abs=setup.top_h) and y < 1 - 0.9 * 0.02  # a = 0.02 deep
 
 
 def test_bad_input_raises_before_work():
