@@ -11,8 +11,9 @@ self-contact is contact with that plane (penalty, ``ngsgel.contact.plane_contact
 anywhere else close on the general self-contact of the top (``ngsgel.contact.SelfContact``, the
 same penalty; ``--no-self-contact`` leaves it out). Every step checks that the surface neither
 crosses the mirror planes (beyond the penalty's penetration, reported) nor itself: faces held by
-the penalty overlap by a thin sliver (its width is reported); a loop wider than ``overlap_limit``
-surface elements is a crossing, and the run stops there.
+the penalty overlap by a thin sliver (its width is reported), the bottom of a closed crease may
+fold through itself within a few elements (counted and reported: the P2 edges cannot make the
+hairpin); any other loop is a crossing, and the run stops there.
 
 Per run (``--out``): step history (``history.csv``: time, dt, Newton, solvent uptake, balance
 error, swollen depth, surface-layer stretch ratio, groove and crease depth, contact length,
