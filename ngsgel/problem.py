@@ -157,7 +157,8 @@ class GelBody(BuiltOnDemand):
     def add_self_contact(self, boundary: str, *, penalty: float, maxdist: float = 0.0, intorder: int = 4) -> None:
         """Penalty self-contact of ``boundary`` (``ngsgel.contact.SelfContact``): faces of it that
         meet, e.g. a crease closing anywhere along a free surface, do not pass through each other
-        (beyond the penalty's penetration ``p / (2 k)`` at contact pressure ``p``)."""
+        (beyond the penalty's penetration ``p / (2 k)`` at contact pressure ``p``). 2D meshes
+        (plane strain, axisymmetric sections) only."""
         self._check_open()
         self._check_boundary(boundary)
         self._self_contacts.append(SelfContact(self.mesh, boundary, penalty=penalty, maxdist=maxdist,

@@ -337,7 +337,7 @@ def test_self_contact_input_is_checked_before_any_solve():
             prob.add_self_contact("top", **kwargs)
     with pytest.raises(ValueError, match="unknown boundary"):
         prob.add_self_contact("roof", penalty=1.0)
-    with pytest.raises(ValueError, match="2D or 3D"):
+    with pytest.raises(ValueError, match="2D meshes only"):
         SelfContact(Make1DMesh(4), "right", penalty=1.0)
     prob.solve()
     with pytest.raises(RuntimeError, match="before the first solve"):
