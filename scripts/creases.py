@@ -782,6 +782,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--thickness", type=float, default=Setup.thickness)
     parser.add_argument("--amplitude", type=float, default=Setup.amplitude,
                         help="trough depth / W (with --seed: max |w| / W of the random imperfection)")
+    parser.add_argument("--trough", choices=("mirror", "centre"), default=Setup.trough,
+                        help="where the trough lies: on the left mirror line (default) or in the middle of the cell")
     parser.add_argument("--seed", type=int, default=None, help="random mirror-symmetric imperfection "
                         "(modes cos(pi m x / W)) instead of the trough on the left mirror line")
     parser.add_argument("--wavelength", type=float, default=Setup.wavelength,
@@ -813,7 +815,7 @@ def main(argv=None) -> dict:
     setup = Setup(Nv=args.Nv, chi=args.chi, mu0=args.mu0, thickness=args.thickness, width=args.width,
                   amplitude=args.amplitude, top_h=top_h, tip_h=args.tip_h, tip_length=args.tip_length, maxh=max(args.maxh, top_h) if quick else args.maxh,
                   penalty=args.penalty, ramp=args.ramp, viscosity=args.viscosity,
-                  surface_tension=args.surface_tension, seed=args.seed, wavelength=args.wavelength,
+                  surface_tension=args.surface_tension, trough=args.trough, seed=args.seed, wavelength=args.wavelength,
                   self_contact=not args.no_self_contact)
     setup.check()
     if args.equilibrium:
