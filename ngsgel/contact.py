@@ -23,10 +23,14 @@ renewed at every state the solver evaluates) and adds
     W_c = k/2 <g>_+^2   per unit reference boundary,   g = (x_1 - x_2) . n_1,
 
 ``x_1`` the point, ``x_2`` its partner, ``n_1`` and ``n_2`` the outward normals there (deformed,
-functions of the displacement, so that Newton's tangent sees them turn), weighted by how squarely the two points face each other: with
-``c = min((x_1 - x_2) . n_1, -(x_1 - x_2) . n_2) / |x_1 - x_2|`` the weight is 1 for ``c >= 0.9``,
-0 for ``c <= 0.5``, linear between. Two faces pressed together give ``c ~ 1`` (the partner is
-the foot of ``x_1``'s normal, and ``x_1`` lies behind the partner's face). The closest-point
+functions of the displacement, so that Newton's tangent sees them turn), weighted by how
+squarely the two points face each other: with
+
+    c = min((x_1 - x_2) . n_1, -(x_1 - x_2) . n_2) / |x_1 - x_2|
+
+the weight is 1 for ``c >= 0.9``, 0 for ``c <= 0.5``, linear between. Two faces pressed together
+give ``c ~ 1`` (the partner is the foot of ``x_1``'s normal, and ``x_1`` lies behind the
+partner's face). The closest-point
 search also returns partners that are not: a neighbour across a sharp bend of the surface, or
 the end of an element on the far side of a mesh-scale groove or slit, which lies behind
 ``x_1``'s tangent while ``x_1`` is in front of its face. Their ``g`` is positive without any
@@ -35,9 +39,14 @@ switch on and off under round-off-sized moves and their force jumps. Measured on
 layer's mesh-scale grooves: unweighted, a jump of 1.1e-4 that stalled Newton at 4e-6 and ended
 the march at t = 5.4e-3; weighted by ``n_1`` alone, 6e-5 at a nearly closed slit (t = 1.44e-2);
 a half cell's ramp stuck at 2e-8 where the groove bottom bent by ~100 degrees within an element.
-The weight removes them, continuously in the state. Every face is a master, so two faces overlapping by ``g`` carry the energy twice: the penalty ``k/4``
-here is the mirror-plane penalty ``k`` of ``plane_contact`` on a mirror image (the gap is twice
-the distance to the plane), which ``tests/test_creases.py`` checks on a closed crease.
+The weight removes them, continuously in the state.
+
+Every face is a master, so two faces overlapping by ``g`` carry the energy twice: the penalty
+``k/4`` here is the mirror-plane penalty ``k`` of ``plane_contact`` on a mirror image (the gap is
+twice the distance to the plane), which ``tests/test_creases.py`` checks on a closed crease.
+NGSolve's pairs freeze the partner's position on its element, so Newton does not see the gap
+change as the partner slides; where the faces are not parallel it converges linearly
+(docs/creases.md).
 """
 
 from __future__ import annotations
@@ -81,8 +90,9 @@ class SelfContact:
     """Penalty self-contact of ``boundary`` (2D meshes): ``k/2 <g>_+^2`` per unit
     reference boundary for every point that has passed through the face opposite it, searched
     within ``maxdist`` (default 0: twice the largest boundary element) with ``intorder`` points
-    per element, weighted by how squarely the pair faces each other (module docstring). ``attach`` adds it to a problem's form; ``update(displacement)`` renews the
-    pairs for a state and must precede every residual, tangent and energy evaluation there."""
+    per element, weighted by how squarely the pair faces each other (module docstring).
+    ``attach`` adds it to a problem's form; ``update(displacement)`` renews the pairs for a
+    state and must precede every residual, tangent and energy evaluation there."""
 
     def __init__(self, mesh: ngs.Mesh, boundary: str, *, penalty: float, maxdist: float = 0.0,
                  intorder: int = 4):
@@ -120,7 +130,8 @@ class SelfContact:
         distance = ngs.sqrt(ngs.InnerProduct(apart, apart) + 1e-300)
         behind = -(apart * n2)
         squareness = ngs.IfPos(gap - behind, behind, gap) / distance
-        facing = ngs.IfPos(squareness - SQUARE, 1.0, ngs.IfPos(squareness - OBLIQUE, (squareness - OBLIQUE) / (SQUARE - OBLIQUE), 0.0))
+        facing = ngs.IfPos(squareness - SQUARE, 1.0,
+                           ngs.IfPos(squareness - OBLIQUE, (squareness - OBLIQUE) / (SQUARE - OBLIQUE), 0.0))
         contact.AddEnergy(weight * facing * ngs.IfPos(gap, 0.5 * self.penalty * gap * gap, 0.0))
         self._contact, self._form = contact, form
 
