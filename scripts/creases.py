@@ -499,7 +499,7 @@ def plot_transient(rows, profiles, setup: Setup, path) -> None:
 
     if not rows:
         return
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.3))
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4.3))
     times = sorted(profiles)
     colors = plt.cm.viridis(np.linspace(0, 1, max(len(times), 2)))
     for c, t in zip(colors, times):
@@ -519,8 +519,21 @@ def plot_transient(rows, profiles, setup: Setup, path) -> None:
     axes[2].plot(np.sqrt(t), [r["uptake"] for r in rows], "o-", ms=2)
     axes[2].set_xlabel("sqrt(t)")
     axes[2].set_ylabel("solvent uptake (per unit depth)")
-    fig.suptitle(f"Nv={setup.Nv}, chi={setup.chi}, mu0={setup.mu0}, W={setup.width}, a/W={setup.amplitude}, "
-                 f"h={setup.top_h}")
+    # the pattern against the depth of the swollen zone (Tanaka: spacing grows with it)
+    depth = np.array([r["swollen_depth"] for r in rows])
+    axes[3].plot(depth, [r["crease_spacing"] for r in rows], ".", ms=2, label="mean groove spacing")
+    closed = np.array([r["self_contacts"] + r["contact_points_left"] + r["contact_points_right"] > 0 for r in rows])
+    if closed.any():
+        axes[3].axvline(depth[np.argmax(closed)], color="k", lw=0.8, ls=":", label="first faces in contact")
+    axes[3].set_xscale("log")
+    axes[3].set_yscale("log")
+    axes[3].set_xlabel("swollen depth (reference)")
+    axes[3].set_ylabel(f"spacing (period {2 * setup.width:g})")
+    axes[3].legend(fontsize=7)
+    imperfection = (f"trough ({setup.trough}) a/W={setup.amplitude}" if setup.seed is None else
+                    f"random (seed {setup.seed}, wavelength >= {setup.wavelength}) a/W={setup.amplitude}")
+    fig.suptitle(f"Nv={setup.Nv}, chi={setup.chi}, mu0={setup.mu0}, W={setup.width}, {imperfection}, "
+                 f"h={setup.top_h}, gamma/(G H)={setup.surface_tension}")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
