@@ -250,7 +250,7 @@ def surface_state(prob, setup: Setup) -> dict:
         out[f"crease_depth_{side}"] = float(y[touching].max() - y[tip]) if touching.any() else 0.0
         out[f"tip_y_{side}"] = float(y[tip])
     out["groove_depth"] = float(y.max() - y[0])
-    out["tip_angle"], out["tip_radius"] = tip_geometry(x, y)
+    out["tip_angle"], out["tip_radius"] = tip_geometry(x, y, per_edge)
     # mirrored profile over one period [-W, W] (x increasing where the surface is a graph)
     xs, ys = [], []
     for xi, yi in zip(np.clip(x, 0.0, W), y):  # the part of the surface that is a graph over x
