@@ -320,7 +320,9 @@ def test_self_contact_leaves_an_open_groove_with_a_sharp_bottom_alone():
                                          imperfect=True, contact=True)
         ramp(prob, prob.mu, mu, step=0.05)
         energies.append(prob.energy())
-    assert energies[1] == energies[0]
+    # round-off apart: the self-contact's pair elements change the matrix graph, hence the
+    # factorisation (CI with two threads: 1 ulp)
+    assert energies[1] == pytest.approx(energies[0], rel=1e-12)
 
 
 def test_self_contact_input_is_checked_before_any_solve():
