@@ -38,6 +38,7 @@ __all__ = [
     "load_drops",
     "penetration_depth",
     "periodic_peaks",
+    "power_law_fit",
     "sample_on_circle",
     "sample_on_line",
     "stiffness_drops",
@@ -571,3 +572,18 @@ def sample_on_line(field: ngsolve.CoefficientFunction, mesh: ngsolve.Mesh, *, st
     points = a + np.outer(s, b - a)
     return FieldSamples(parameter=s * float(np.linalg.norm(b - a)), points=points,
                         values=_evaluate(field, mesh, points, "start/end"))
+
+
+def power_law_fit(x, y) -> dict:
+    """Least-squares fit ``log y = a + b log x``: ``b``, its standard error and the points used."""
+    lx, ly = np.log(np.asarray(x, dtype=float)), np.log(np.asarray(y, dtype=float))
+    n = len(lx)
+    if n < 3:
+        raise ValueError(f"a power-law fit with an error needs >= 3 points, got {n}")
+    A = np.column_stack([np.ones(n), lx])
+    coef, *_ = np.linalg.lstsq(A, ly, rcond=None)
+    residual = ly - A @ coef
+    sigma2 = float(residual @ residual) / (n - 2)
+    covariance = sigma2 * np.linalg.inv(A.T @ A)
+    return {"exponent": float(coef[1]), "standard_error": float(math.sqrt(covariance[1, 1])),
+            "prefactor": float(math.exp(coef[0])), "points": n}

@@ -28,7 +28,7 @@ import scipy.sparse.linalg as sla
 
 __all__ = ["Spectrum", "LoadRate", "BucklingResult", "free_matrix", "mass_matrix", "negative_count",
            "spectrum", "load_rate", "conjugate_force", "mode_function", "load_projection", "linear_buckling",
-           "random_field", "seed_imperfection"]
+           "random_field", "seed_imperfection", "GrowthSelection", "growth_exponents", "fastest_growing"]
 
 
 def free_matrix(mat: ngs.BaseMatrix, free_mask: np.ndarray) -> sp.csc_matrix:
@@ -295,3 +295,81 @@ def seed_imperfection(problem, shapes: Sequence[ngs.GridFunction], amplitudes: S
         total.vec.data += float(a) * shape.vec
     problem.mesh.SetDeformation(problem.parts(total)[0])
     return total
+
+
+# ----------------------------------------------------------------------------- overdamped growth
+
+
+def _positive_part_integral(f0, f1, width):
+    """``int_0^width max(0, f)`` of ``f`` linear from ``f0`` to ``f1`` (arrays, elementwise)."""
+    f0, f1 = np.asarray(f0, float), np.asarray(f1, float)
+    both = 0.5 * (np.maximum(f0, 0) + np.maximum(f1, 0)) * width
+    hi, lo = np.maximum(f0, f1), np.minimum(f0, f1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        triangle = 0.5 * width * hi**2 / (hi - lo)  # only the part where f > 0, when the sign changes
+    return np.where(lo >= 0, both, np.where(hi <= 0, 0.0, triangle))
+
+
+def growth_exponents(load: Sequence[float], eigenvalues) -> np.ndarray:
+    """Cumulative growth exponents ``G_j(load_i) = int_{load_0}^{load_i} max(0, -omega_j) dload``
+    of modes ``j`` whose eigenvalues ``omega_j`` (``K phi = omega M phi``) are sampled at the
+    increasing loads ``load_i`` (``eigenvalues[i, j]``, linear in the load between samples).
+
+    Meaning: under the overdamped flow ``c M dx/dtau = -K(lambda) x`` with the load ramped at a
+    constant rate ``lambda' = dlambda/dtau`` (a quasi-static run with viscous stabilisation, e.g.
+    Abaqus's ``*Static, stabilize``, whose damping matrix is ``c`` times a unit-density mass
+    matrix), a mode grows by ``exp(G / (c lambda'))`` from where it loses stability; stable
+    modes do not grow."""
+    load = np.asarray(load, dtype=float)
+    omega = np.asarray(eigenvalues, dtype=float)
+    if load.ndim != 1 or omega.ndim != 2 or omega.shape[0] != load.size or load.size < 2:
+        raise ValueError(f"eigenvalues must be (len(load), modes) with len(load) >= 2, got {omega.shape} and {load.shape}")
+    if not (np.all(np.isfinite(load)) and np.all(np.isfinite(omega))):
+        raise ValueError("load and eigenvalues must be finite")
+    if not np.all(np.diff(load) > 0):
+        raise ValueError("load must increase strictly")
+    steps = _positive_part_integral(-omega[:-1], -omega[1:], np.diff(load)[:, None])
+    return np.vstack([np.zeros(omega.shape[1]), np.cumsum(steps, axis=0)])
+
+
+@dataclass
+class GrowthSelection:
+    """The mode that grows first by ``threshold`` (``fastest_growing``): its column ``index``,
+    the ``load`` at which it does, and the exponents ``G`` of all modes at that load."""
+
+    index: int
+    load: float
+    exponents: np.ndarray
+
+
+def fastest_growing(load: Sequence[float], eigenvalues, threshold: float) -> GrowthSelection | None:
+    """The mode whose growth exponent (``growth_exponents``) first reaches ``threshold`` as the
+    load rises, with the load where it does (exact for eigenvalues linear between the samples);
+    None if none does by the last load. ``threshold = c lambda' ln(A / a0)``: the damping
+    coefficient times the load rate times the log of the growth from the imperfection ``a0`` to a
+    visible amplitude ``A``; as it goes to zero the first mode to lose stability is selected."""
+    if not (np.isfinite(threshold) and threshold > 0):
+        raise ValueError(f"threshold must be a finite number > 0, got {threshold!r}")
+    load = np.asarray(load, dtype=float)
+    omega = np.asarray(eigenvalues, dtype=float)
+    G = growth_exponents(load, omega)
+    reached = np.nonzero(np.any(G >= threshold, axis=1))[0]
+    if reached.size == 0:
+        return None
+    i = int(reached[0])  # the threshold is crossed within (load[i-1], load[i]]
+
+    def exponent(j: int, x: float) -> float:
+        f0, f1 = -omega[i - 1, j], -omega[i, j]
+        fx = f0 + (f1 - f0) * (x - load[i - 1]) / (load[i] - load[i - 1])
+        return float(G[i - 1, j] + _positive_part_integral(f0, fx, x - load[i - 1]))
+
+    crossings = []
+    for j in np.nonzero(G[i] >= threshold)[0]:
+        lo, hi = load[i - 1], load[i]
+        for _ in range(100):  # bisection: the exponent is nondecreasing in the load
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if exponent(int(j), mid) < threshold else (lo, mid)
+        crossings.append((hi, int(j)))
+    at, j = min(crossings)
+    return GrowthSelection(index=j, load=float(at),
+                           exponents=np.array([exponent(m, at) for m in range(omega.shape[1])]))

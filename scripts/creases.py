@@ -58,11 +58,12 @@ from geometries.layers import layer_plane  # noqa: E402
 from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain  # noqa: E402
 from ngsgel.contact import crossing_loops, plane_contact, surface_line  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
-from ngsgel.patterns import crease_positions, sample_on_line  # noqa: E402
+from ngsgel.patterns import crease_positions, power_law_fit, sample_on_line  # noqa: E402
 from ngsgel.surface import surface_tension as surface_tension_density  # noqa: E402
 from ngsgel.stability import free_matrix, negative_count, spectrum  # noqa: E402
 from ngsgel.stepping import RampError, ramp  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
+from scipy.stats import spearmanr  # noqa: E402
 from ngsgel.transient import TransientError, TransientProblem, march, time_ramp  # noqa: E402
 
 BIOT_RATIO = 3.383  # Biot (1963): incompressible neo-Hookean half-space, plane strain, lam2/lam1 at wrinkling
@@ -309,6 +310,37 @@ def swelling_state(prob, setup: Setup, n: int = 201) -> dict:
 # ----------------------------------------------------------------------------- transient run
 
 
+def spacing_against_depth(depth, grooves, period: float, *, bins_per_decade: int = 8) -> dict | None:
+    """How the groove spacing grows with the swollen depth over a run: the states are binned in
+    log depth (so that the many small steps of a snap do not outweigh the rest), the spacing of a
+    bin is ``period / median(grooves per period)``; reported per bin, with Spearman's rank
+    correlation of spacing and depth over the bins and the exponent ``b`` of ``spacing ~ depth^b``
+    (least squares over the bins with two or more grooves per period: at one groove the spacing
+    is the cell's period, a bound, not a measurement). None with fewer than three bins."""
+    depth, grooves = np.asarray(depth, float), np.asarray(grooves, float)
+    ok = (depth > 0) & (grooves >= 1)
+    if ok.sum() < 3:
+        return None
+    edges = 10.0 ** (np.arange(math.floor(np.log10(depth[ok].min()) * bins_per_decade),
+                               math.ceil(np.log10(depth[ok].max()) * bins_per_decade) + 1) / bins_per_decade)
+    table = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        inside = ok & (depth >= lo) & (depth < hi)
+        if inside.any():
+            count = float(np.median(grooves[inside]))
+            table.append({"depth": float(np.sqrt(lo * hi)), "grooves": count, "spacing": period / count,
+                          "states": int(inside.sum())})
+    if len(table) < 3:
+        return None
+    d = np.array([r["depth"] for r in table])
+    sp = np.array([r["spacing"] for r in table])
+    result = {"bins": table, "rank_correlation": float(spearmanr(d, sp).statistic)}
+    several = np.array([r["grooves"] >= 2 for r in table])
+    if several.sum() >= 3:
+        result["fit"] = power_law_fit(d[several], sp[several])
+    return result
+
+
 @contextlib.contextmanager
 def _nothing():
     yield
@@ -482,7 +514,9 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                "max_tip_lobe_area_over_h2": state["max_tip_lobe_area"],
                "tip_sharpening": state["sharpening"],
                "max_penetration_time": state.get("max_penetration_time"),
-               "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO}
+               "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO,
+               "spacing_against_depth": spacing_against_depth([r["swollen_depth"] for r in rows],
+                                                              [r["creases_per_period"] for r in rows], 2 * setup.width)}
     if run_dir:
         run_dir.write_json("summary.json", summary)
         plot_transient(rows, profiles, setup, run_dir.file("creases.png"))
@@ -856,6 +890,14 @@ def main(argv=None) -> dict:
           f"surface ratio {onset['surface_ratio']:.3f}, skin ratio {onset['skin_ratio']:.3f}; max balance error "
           f"{summary['max_relative_balance_error']:.1e}; max penetration/h {summary['max_penetration_over_h']:.1e}; "
           f"results in {args.out}")
+    growth = summary["spacing_against_depth"]
+    if growth:
+        fit = growth.get("fit")
+        print("groove spacing against swollen depth: " + ", ".join(
+            f"{b['spacing']:.3g} at {b['depth']:.3g}" for b in growth["bins"]) +
+              f"; rank correlation {growth['rank_correlation']:+.2f}" +
+              (f", spacing ~ depth^{fit['exponent']:.2f} +- {fit['standard_error']:.2f} over {fit['points']} bins"
+               if fit else ""))
     sharp = summary["tip_sharpening"]
     if sharp:
         print(f"tip radius l/4 = {sharp['radius']:.4g} reached at t = {sharp['time']:.4e} (groove "

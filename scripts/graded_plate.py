@@ -53,7 +53,7 @@ from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
 from ngsgel.continuation import PathResult, StabilityOptions
 from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
-from ngsgel.patterns import penetration_depth
+from ngsgel.patterns import penetration_depth, power_law_fit
 from ngsgel.supports import vertex_dof
 
 CHI = 0.5
@@ -525,21 +525,6 @@ def onset_curves(out: str, ps, ts, **options) -> list[dict]:
     for line in rows:
         print("  ".join(f"{k} {v:.5g}" if isinstance(v, float) else f"{k} {v}" for k, v in line.items()))
     return rows
-
-
-def power_law_fit(x, y) -> dict:
-    """Least-squares fit ``log y = a + b log x``: ``b``, its standard error and the points used."""
-    lx, ly = np.log(np.asarray(x, dtype=float)), np.log(np.asarray(y, dtype=float))
-    n = len(lx)
-    if n < 3:
-        raise ValueError(f"a power-law fit with an error needs >= 3 points, got {n}")
-    A = np.column_stack([np.ones(n), lx])
-    coef, *_ = np.linalg.lstsq(A, ly, rcond=None)
-    residual = ly - A @ coef
-    sigma2 = float(residual @ residual) / (n - 2)
-    covariance = sigma2 * np.linalg.inv(A.T @ A)
-    return {"exponent": float(coef[1]), "standard_error": float(math.sqrt(covariance[1, 1])),
-            "prefactor": float(math.exp(coef[0])), "points": n}
 
 
 def plot_onset_curves(curves: dict, path) -> None:

@@ -247,11 +247,27 @@ def test_quick_script_reports_onset(tmp_path):
     assert summary["max_penetration_over_h"] < 0.05
     assert summary["max_overlap_over_h"] <= creases.Setup.overlap_limit  # faces held by the self-contact, if any
     assert summary["max_relative_balance_error"] < 1e-6
+    # the skin's grooves coarsen as the swollen zone deepens, to one per period at the onset
+    assert summary["spacing_against_depth"]["rank_correlation"] > 0
+    assert summary["spacing_against_depth"]["bins"][-1]["grooves"] == 1
     saved = json.loads((tmp_path / "summary.json").read_text())
     assert saved["onset"]["time"] == pytest.approx(summary["onset"]["time"])
     sharp = saved["tip_sharpening"]  # the converging onset measure (needs tip_h <= l/16 to mean anything)
     assert sharp is None or sharp["previous_time"] <= sharp["time"] <= sharp["step_time"]
     assert (tmp_path / "creases.png").stat().st_size > 0
+
+
+def test_spacing_against_depth_recovers_a_power_law_and_ignores_the_cell_bound():
+    depth = np.geomspace(1e-3, 1.0, 400)
+    period = 0.4
+    grooves = np.maximum(1, np.round(period / (0.5 * depth**0.5)))  # spacing 0.5 sqrt(depth), capped at the period
+    result = creases.spacing_against_depth(depth, grooves, period)
+    several = [b for b in result["bins"] if b["grooves"] >= 2]
+    assert result["fit"]["points"] == len(several) >= 3
+    assert result["fit"]["exponent"] == pytest.approx(0.5, abs=0.05)  # up to rounding the groove counts
+    assert result["rank_correlation"] > 0.95
+    assert result["bins"][-1]["spacing"] == period
+    assert creases.spacing_against_depth([0.1, 0.2], [3, 2], period) is None
 
 
 def test_self_contact_closes_an_interior_crease_as_the_mirror_plane_does():

@@ -160,3 +160,28 @@ def test_disk_circle_values_mirror_the_half_disk():
         values = bench_shell.disk_circle_values(field, mesh, radius=0.8, n=48, half=half)
         assert np.allclose(values, exact, atol=1e-12)
         assert wave_number(values).k == 2
+
+
+def test_matching_thresholds_need_every_computed_thesis_case():
+    from graded_plate_growth import matching_thresholds
+
+    thresholds = [1.0, 2.0, 3.0, 4.0]
+    table = {0.25: [2, 2, 2, 3], 10.0: [2, 6, 8, 8], 5.0: [1, 1, 1, 1]}  # 5.0: not a thesis case, ignored
+    assert matching_thresholds(thresholds, table, {0.25: 2, 10.0: 8, 2.0: 5}) == [3.0]
+    assert matching_thresholds(thresholds, {5.0: [1] * 4}, {0.25: 2}) == []
+
+
+@pytest.mark.slow
+def test_quick_growth_selection_starts_at_the_onset_wave_number(tmp_path):
+    """At a vanishing threshold the first mode to grow is the first to lose stability (k = 2 for
+    the softer edge), and a larger threshold never selects a smaller k on this case."""
+    import csv
+
+    from graded_plate_growth import main
+
+    summary = main(["--quick", "--out", str(tmp_path)])
+    assert summary["cases"][0]["k_first_unstable"] == 2
+    with open(tmp_path / "selection.csv") as f:
+        ks = [int(r["k_p10_t0.01"]) for r in csv.DictReader(f) if r["k_p10_t0.01"] not in ("", "None")]
+    assert ks[0] == 2 and ks[-1] > 2
+    assert all(b >= a for a, b in zip(ks, ks[1:]))
