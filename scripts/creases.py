@@ -310,14 +310,17 @@ def swelling_state(prob, setup: Setup, n: int = 201) -> dict:
 # ----------------------------------------------------------------------------- transient run
 
 
-def spacing_against_depth(depth, grooves, period: float, *, bins_per_decade: int = 8) -> dict | None:
+def spacing_against_depth(depth, grooves, period: float, times=None, *, bins_per_decade: int = 8) -> dict | None:
     """How the groove spacing grows with the swollen depth over a run: the states are binned in
     log depth (so that the many small steps of a snap do not outweigh the rest), the spacing of a
     bin is ``period / median(grooves per period)``; reported per bin, with Spearman's rank
     correlation of spacing and depth over the bins and the exponent ``b`` of ``spacing ~ depth^b``
     (least squares over the bins with two or more grooves per period: at one groove the spacing
-    is the cell's period, a bound, not a measurement). None with fewer than three bins."""
+    is the cell's period, a bound, not a measurement). Coarsening events: consecutive bins whose
+    groove count falls (with the first ``times`` of the later bin, if given). None with fewer than
+    three bins."""
     depth, grooves = np.asarray(depth, float), np.asarray(grooves, float)
+    times = np.full(depth.shape, np.nan) if times is None else np.asarray(times, float)
     ok = (depth > 0) & (grooves >= 1)
     if ok.sum() < 3:
         return None
@@ -329,12 +332,14 @@ def spacing_against_depth(depth, grooves, period: float, *, bins_per_decade: int
         if inside.any():
             count = float(np.median(grooves[inside]))
             table.append({"depth": float(np.sqrt(lo * hi)), "grooves": count, "spacing": period / count,
-                          "states": int(inside.sum())})
+                          "states": int(inside.sum()), "time": float(times[inside][0])})
     if len(table) < 3:
         return None
     d = np.array([r["depth"] for r in table])
     sp = np.array([r["spacing"] for r in table])
-    result = {"bins": table, "rank_correlation": float(spearmanr(d, sp).statistic)}
+    result = {"bins": table, "rank_correlation": float(spearmanr(d, sp).statistic),
+              "coarsening": [{"time": b["time"], "depth": b["depth"], "from": a["grooves"], "to": b["grooves"]}
+                             for a, b in zip(table, table[1:]) if b["grooves"] < a["grooves"]]}
     several = np.array([r["grooves"] >= 2 for r in table])
     if several.sum() >= 3:
         result["fit"] = power_law_fit(d[several], sp[several])
@@ -516,7 +521,8 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
                "max_penetration_time": state.get("max_penetration_time"),
                "ratio_final_equilibrium": setup.ratio(0.0), "biot_ratio": BIOT_RATIO, "crease_ratio": CREASE_RATIO,
                "spacing_against_depth": spacing_against_depth([r["swollen_depth"] for r in rows],
-                                                              [r["creases_per_period"] for r in rows], 2 * setup.width)}
+                                                              [r["creases_per_period"] for r in rows], 2 * setup.width,
+                                                              [r["time"] for r in rows])}
     if run_dir:
         run_dir.write_json("summary.json", summary)
         plot_transient(rows, profiles, setup, run_dir.file("creases.png"))
@@ -897,7 +903,8 @@ def main(argv=None) -> dict:
             f"{b['spacing']:.3g} at {b['depth']:.3g}" for b in growth["bins"]) +
               f"; rank correlation {growth['rank_correlation']:+.2f}" +
               (f", spacing ~ depth^{fit['exponent']:.2f} +- {fit['standard_error']:.2f} over {fit['points']} bins"
-               if fit else ""))
+               if fit else "") + "; coarsening (grooves per period) " + ", ".join(
+            f"{c['from']:g} -> {c['to']:g} at depth {c['depth']:.3g} (t = {c['time']:.3g})" for c in growth["coarsening"]))
     sharp = summary["tip_sharpening"]
     if sharp:
         print(f"tip radius l/4 = {sharp['radius']:.4g} reached at t = {sharp['time']:.4e} (groove "

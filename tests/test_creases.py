@@ -267,6 +267,7 @@ def test_spacing_against_depth_recovers_a_power_law_and_ignores_the_cell_bound()
     assert result["fit"]["exponent"] == pytest.approx(0.5, abs=0.05)  # up to rounding the groove counts
     assert result["rank_correlation"] > 0.95
     assert result["bins"][-1]["spacing"] == period
+    assert result["coarsening"] and all(c["to"] < c["from"] for c in result["coarsening"])
     assert creases.spacing_against_depth([0.1, 0.2], [3, 2], period) is None
 
 
