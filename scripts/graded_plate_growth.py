@@ -16,24 +16,31 @@ density, from ``ngsgel.harmonic`` on the r-z section: exact for the 3D body), an
 is the k whose ``G_k`` first reaches ``T = c mu' ln(A / a0)`` (``fastest_growing``). ``T -> 0``
 is the exact onset (k = 2 here); higher wave numbers go unstable later but grow faster, so a
 larger ``T`` (more damping, a faster ramp, a smaller imperfection) selects a larger k. ``T`` is
-one unknown number of the thesis's runs (its damping factor, step time and imperfection are not
-given); this script tabulates the selected k against ``T`` for every p and t/R, finds the ``T``
-(if any) at which all four of the thesis's p give its k at once, and the k that ``T`` then gives
-against t/R (thesis fig. 5-4: 8 at t/R = 0.01, 3 at 0.1, ``k ~ (t/R)^(-1/2)``), with a power-law
-fit. The growth is linear (a visible amplitude is small against t), each mode is seeded equally,
-and the damping is taken as constant, as Abaqus's is within a step.
+one unknown number of the thesis's runs (its damping factor, step time, imperfection and even
+the ramped variable are not given): this script tabulates the selected k against ``T`` for every
+p and t/R, with ``mu`` and, as the other plausible protocol, the soft stretch ramped at a constant
+rate, and reports the ``T`` (if any) at which all four of the thesis's p give its k at once, the k
+of every p at the ``T`` that gives one p its thesis k, and the k that the ``T`` giving p = 10 its
+k = 8 selects against t/R (thesis fig. 5-4: 8 at t/R = 0.01, 3 at 0.1, ``k ~ (t/R)^(-1/2)``), with
+a power-law fit (the same ``T`` for every t/R: Abaqus sets ``c`` from the energy of the first
+increment, which scales with t as the stiffness and the mass do). The growth is linear (a visible
+amplitude is small against t), every mode is seeded equally, and the damping is constant, as
+Abaqus's is within a step.
 
 Writes per case ``eigenvalues_p{p}_t{t}.csv`` (soft stretch, ``mu`` and ``omega_k`` at every
-state, flushed per state), ``selection.csv`` (per threshold the selected k and its ``mu`` for every
-case), ``summary.json`` and ``selection.png``.
+state, flushed per state), ``selection_mu.csv`` and ``selection_stretch.csv`` (per threshold the
+selected k and the load where it grows for every case), ``summary.json`` and ``selection.png``;
+``--tables DIR`` analyses the tables of an earlier run again.
 
     python scripts/graded_plate_growth.py --out results/graded_growth --sweep 0.25 0.75 2 10 --t-sweep 0.02 0.05 0.1
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -51,8 +58,8 @@ WAVE_NUMBERS = list(range(2, 41)) + [45, 50, 60, 70, 80, 90, 100]
 
 
 def eigenvalue_table(csv_path, *, n0: float, nR: float, p: float, t: float, maxh: float, order: int,
-                     mu_low: float, points: int, ks: list[int], progress=None) -> tuple[np.ndarray, np.ndarray]:
-    """``mu`` and ``omega[i, j]`` (lowest eigenvalue of ``ks[j]``, rigid motions excluded) at
+                     mu_low: float, points: int, ks: list[int], progress=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``mu``, the soft stretch and ``omega[i, j]`` (lowest eigenvalue of ``ks[j]``, rigid motions excluded) at
     ``points`` states of the flat disk, equally spaced in the soft stretch from ``mu_low`` to 0
     (the flat, mid-plane symmetric state is an equilibrium all the way, stable or not)."""
     soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
@@ -71,12 +78,21 @@ def eigenvalue_table(csv_path, *, n0: float, nR: float, p: float, t: float, maxh
             table.append({"soft_stretch": float(s), "mu": mu[-1], **{f"k{k}": w for k, w in zip(ks, omega[-1])}})
             if progress is not None:
                 progress(f"p = {p:g} t = {t:g}: mu = {mu[-1]:+.5f}, lowest at k = {ks[int(np.argmin(omega[-1]))]}")
-    return np.array(mu), np.array(omega)
+    return np.array(mu), grid, np.array(omega)
 
 
-def selected(mu: np.ndarray, omega: np.ndarray, ks: list[int], threshold: float) -> tuple[int | None, float]:
-    """The wave number that first grows by ``threshold`` and the ``mu`` where it does."""
-    choice = fastest_growing(mu, omega, threshold)
+def read_table(csv_path) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """An ``eigenvalue_table`` CSV: ``mu``, soft stretch, ``omega`` and the wave numbers."""
+    with open(csv_path) as f:
+        rows = list(csv.DictReader(f))
+    ks = [int(name[1:]) for name in rows[0] if name.startswith("k")]
+    return (np.array([float(r["mu"]) for r in rows]), np.array([float(r["soft_stretch"]) for r in rows]),
+            np.array([[float(r[f"k{k}"]) for k in ks] for r in rows]), ks)
+
+
+def selected(load: np.ndarray, omega: np.ndarray, ks: list[int], threshold: float) -> tuple[int | None, float]:
+    """The wave number that first grows by ``threshold`` and the load where it does."""
+    choice = fastest_growing(load, omega, threshold)
     return (None, math.nan) if choice is None else (ks[choice.index], choice.load)
 
 
@@ -89,8 +105,53 @@ def matching_thresholds(thresholds, table: dict, wanted: dict) -> list[float]:
     return [T for i, T in enumerate(thresholds) if all(table[key][i] == wanted[key] for key in keys)]
 
 
-def run(out: str, *, ps, ts=(), p: float = 10.0, t: float = 0.01, n0: float = 1e-2, nR: float = 1e-3, maxh: float = 0.02, order: int = 3,
-        mu_low: float = -0.35, points: int = 30, ks: list[int] | None = None, quick: bool = False) -> dict:
+def geometric_middle(values) -> float:
+    return math.exp(0.5 * (math.log(values[0]) + math.log(values[-1])))
+
+
+def analyse(curves: dict, ks: list[int], *, ramp_variable: str, p: float, csv_path) -> dict:
+    """Selected k against the threshold for every case, with ``mu`` (index 0 of a curve) or the
+    soft stretch (index 1) ramped at a constant rate; the thresholds (if any) that give the
+    thesis's k for all its p at t/R = 0.01, and those that give its k = 8 for p = 10 alone, with
+    the k that threshold selects against t/R at ``p`` and a power-law fit."""
+    column = {"mu": 0, "stretch": 1}[ramp_variable]
+    thresholds = np.geomspace(1e-9, 1e-1, 161)
+    table = {case: [] for case in curves}
+    with History(csv_path) as out_table:
+        for T in thresholds:
+            row = {"threshold": float(T)}
+            for (q, s), curve in curves.items():
+                k, at = selected(curve[column], curve[2], ks, T)
+                table[(q, s)].append(k)
+                row[f"k_p{q:g}_t{s:g}"], row[f"at_p{q:g}_t{s:g}"] = k, at
+            out_table.append(row)
+    at_thesis_t = {q: table[(q, s)] for q, s in curves if math.isclose(s, 0.01)}  # fig. 5-3 B is t/R = 0.01
+    result: dict = {"ramp": ramp_variable, "matched_p": [q for q in THESIS_K if q in at_thesis_t],
+                    "thresholds_matching_thesis": matching_thresholds(thresholds, at_thesis_t, THESIS_K)}
+    for q in result["matched_p"]:
+        alone = matching_thresholds(thresholds, at_thesis_t, {q: THESIS_K[q]})
+        result[f"thresholds_p{q:g}"] = [alone[0], alone[-1]] if alone else []
+        if alone:  # the other p at the threshold that gives this p its thesis k
+            T = geometric_middle(alone)
+            result[f"k_at_threshold_p{q:g}"] = {f"{r:g}": selected(curves[(r, 0.01)][column], curves[(r, 0.01)][2],
+                                                                   ks, T)[0] for r in at_thesis_t}
+    if THESIS_K.get(p) and result.get(f"thresholds_p{p:g}"):
+        T = geometric_middle(result[f"thresholds_p{p:g}"])
+        rows = sorted((s, *selected(curves[(q, s)][column], curves[(q, s)][2], ks, T)) for q, s in curves if q == p)
+        result["selected_against_t"] = {"p": p, "threshold": T, "rows": [{"t": s, "k": k, "at": at} for s, k, at in rows]}
+        usable = [(s, k) for s, k, _ in rows if k is not None]
+        if len(usable) >= 3:
+            result["k_of_t_fit"] = power_law_fit(*zip(*usable))
+    result["table"] = table
+    result["thresholds"] = thresholds
+    return result
+
+
+def run(out: str, *, ps, ts=(), p: float = 10.0, t: float = 0.01, n0: float = 1e-2, nR: float = 1e-3,
+        maxh: float = 0.02, order: int = 3, mu_low: float = -0.35, points: int = 30, ks: list[int] | None = None,
+        tables: str | None = None, quick: bool = False) -> dict:
+    """``tables``: a folder with the ``eigenvalues_p*_t*.csv`` of an earlier run to analyse
+    instead of computing them (the options that set the tables are then not used)."""
     if quick:
         maxh, order, points, ks = 0.05, 2, 10, list(range(2, 13))
     ks = list(WAVE_NUMBERS if ks is None else ks)
@@ -102,69 +163,60 @@ def run(out: str, *, ps, ts=(), p: float = 10.0, t: float = 0.01, n0: float = 1e
         raise ValueError(f"ks must be increasing wave numbers >= 2, got {ks!r}")
     cases = list(dict.fromkeys([(float(q), float(t)) for q in ps] + [(float(p), float(s)) for s in ts]))
     run_dir = RunDirectory(out, params=dict(ps=list(ps), ts=list(ts), p=p, t=t, n0=n0, nR=nR, maxh=maxh, order=order,
-                                            mu_low=mu_low, points=points, ks=ks, quick=quick, chi=CHI))
+                                            mu_low=mu_low, points=points, ks=ks, tables=tables, quick=quick, chi=CHI))
     progress = Progress("graded_plate_growth")
     start = time.perf_counter()
     curves = {}
     for case in cases:
+        name = f"eigenvalues_p{case[0]:g}_t{case[1]:g}.csv"
+        if tables is not None:
+            *curves[case], found = read_table(Path(tables) / name)
+            if found != ks:
+                raise ValueError(f"{name} in {tables} has wave numbers {found}, expected {ks}")
+            continue
         clock = time.perf_counter()
-        curves[case] = eigenvalue_table(run_dir.file(f"eigenvalues_p{case[0]:g}_t{case[1]:g}.csv"), n0=n0, nR=nR,
-                                        p=case[0], t=case[1], maxh=maxh, order=order, mu_low=mu_low, points=points,
-                                        ks=ks, progress=progress)
+        curves[case] = eigenvalue_table(run_dir.file(name), n0=n0, nR=nR, p=case[0], t=case[1], maxh=maxh,
+                                        order=order, mu_low=mu_low, points=points, ks=ks, progress=progress)
         progress(f"p = {case[0]:g} t = {case[1]:g}: {time.perf_counter() - clock:.0f} s")
-    thresholds = np.geomspace(1e-9, 1e-1, 161)
-    table = {case: [] for case in cases}
-    with History(run_dir.file("selection.csv")) as out_table:
-        for T in thresholds:
-            row = {"threshold": float(T)}
-            for (q, s), (mu, omega) in curves.items():
-                k, at = selected(mu, omega, ks, T)
-                table[(q, s)].append(k)
-                row[f"k_p{q:g}_t{s:g}"], row[f"mu_p{q:g}_t{s:g}"] = k, at
-            out_table.append(row)
-    summary: dict = {"cases": [{"p": q, "t": s, "k_first_unstable": table[(q, s)][0],
-                                "k_most_unstable_end": ks[int(np.argmin(curves[(q, s)][1][-1]))]}
-                               for q, s in cases]}
-    # the thesis's k of fig. 5-3 B are for t/R = 0.01
-    at_thesis_t = {q: table[(q, s)] for q, s in cases if math.isclose(s, 0.01)}
-    summary["thesis_k"] = {f"{q:g}": k for q, k in THESIS_K.items()}
-    summary["matched_p"] = [q for q in THESIS_K if q in at_thesis_t]
-    match = matching_thresholds(thresholds, at_thesis_t, THESIS_K)
-    summary["thresholds_matching_thesis"] = [float(T) for T in match]
-    if match:
-        T = math.exp(0.5 * (math.log(match[0]) + math.log(match[-1])))  # the middle of the matching range
-        summary["threshold_used"] = T
-        rows = sorted((s, *selected(*curves[(q, s)], ks, T)) for q, s in cases if q == p)
-        summary["selected_against_t"] = {"p": p, "rows": [{"t": s, "k": k, "mu": at} for s, k, at in rows]}
-        usable = [(s, k) for s, k, _ in rows if k is not None]
-        if len(usable) >= 3:
-            summary["k_of_t_fit"] = power_law_fit(*zip(*usable))
+    summary: dict = {"cases": [{"p": q, "t": s, "k_first_unstable": ks[int(np.argmin(curves[(q, s)][2][
+                                    np.argmax(np.any(curves[(q, s)][2] < 0, axis=1))]))],
+                                "k_most_unstable_end": ks[int(np.argmin(curves[(q, s)][2][-1]))]} for q, s in cases],
+                     "thesis_k": {f"{q:g}": k for q, k in THESIS_K.items()}}
+    analyses = {}
+    for ramp_variable in ("mu", "stretch"):
+        analyses[ramp_variable] = analyse(curves, ks, ramp_variable=ramp_variable, p=p,
+                                          csv_path=run_dir.file(f"selection_{ramp_variable}.csv"))
+        summary[f"ramp_{ramp_variable}"] = {k: v for k, v in analyses[ramp_variable].items()
+                                            if k not in ("table", "thresholds")}
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
-    plot_selection(thresholds, table, run_dir.file("selection.png"), match=match)
+    plot_selection(analyses, run_dir.file("selection.png"))
     return summary
 
 
-def plot_selection(thresholds, table: dict, path, *, match) -> None:
+def plot_selection(analyses: dict, path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for i, ((p, t), ks) in enumerate(table.items()):
-        k = np.array([np.nan if v is None else v for v in ks], dtype=float)
-        ax.step(thresholds, k, where="post", color=f"C{i % 10}", label=f"p = {p:g}, t/R = {t:g}")
-        if math.isclose(t, 0.01) and p in THESIS_K:
-            ax.axhline(THESIS_K[p], color=f"C{i % 10}", ls=":", lw=0.8)
-    if match:
-        ax.axvspan(match[0], match[-1], color="0.85", label="all thesis k (dotted)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("growth threshold T = c mu' ln(A / a0)")
-    ax.set_ylabel("first wave number to grow by T")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3, which="both")
+    fig, axes = plt.subplots(1, len(analyses), figsize=(6.5 * len(analyses), 4.5), squeeze=False)
+    for ax, (ramp_variable, result) in zip(axes[0], analyses.items()):
+        for i, ((p, t), ks) in enumerate(result["table"].items()):
+            k = np.array([np.nan if v is None else v for v in ks], dtype=float)
+            ax.step(result["thresholds"], k, where="post", color=f"C{i % 10}", label=f"p = {p:g}, t/R = {t:g}")
+            if math.isclose(t, 0.01) and p in THESIS_K:
+                ax.axhline(THESIS_K[p], color=f"C{i % 10}", ls=":", lw=0.8)
+        match = result["thresholds_matching_thesis"]
+        if match:
+            ax.axvspan(match[0], match[-1], color="0.85", label="all thesis k (dotted)")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"growth threshold T ({ramp_variable} ramped at a constant rate)")
+        ax.set_ylabel("first wave number to grow by T")
+        ax.set_title(f"dotted: thesis k (t/R = 0.01); {'no' if not match else len(match)} common T")
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -182,22 +234,29 @@ def main(argv=None) -> dict:
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--mu-low", type=float, default=-0.35, help="first state (below every onset)")
     parser.add_argument("--points", type=int, default=30, help="states, equally spaced in the soft stretch")
+    parser.add_argument("--tables", help="analyse the eigenvalue tables in this folder (of an earlier run)")
     args = parser.parse_args(argv)
-    summary = run(args.out, ps=args.sweep, ts=args.t_sweep, p=args.p, t=args.t, n0=args.n0, nR=args.nR, maxh=args.maxh,
-                  order=args.order, mu_low=args.mu_low, points=args.points, quick=quick_run(args))
-    print(f"thresholds giving the thesis's k for p in {summary['matched_p']}: "
-          f"{len(summary['thresholds_matching_thesis'])}"
-          + (f" ({summary['thresholds_matching_thesis'][0]:.3g} ... {summary['thresholds_matching_thesis'][-1]:.3g})"
-             if summary["thresholds_matching_thesis"] else ""))
+    summary = run(args.out, ps=args.sweep, ts=args.t_sweep, p=args.p, t=args.t, n0=args.n0, nR=args.nR,
+                  maxh=args.maxh, order=args.order, mu_low=args.mu_low, points=args.points, tables=args.tables,
+                  quick=quick_run(args))
     for case in summary["cases"]:
         print(f"p = {case['p']:g}, t/R = {case['t']:g}: first unstable k = {case['k_first_unstable']}, "
               f"most unstable at mu = 0: k = {case['k_most_unstable_end']}")
-    if "selected_against_t" in summary:
-        print(f"at T = {summary['threshold_used']:.3g}, p = {summary['selected_against_t']['p']:g}: " + ", ".join(
-            f"t/R {r['t']:g} -> k {r['k']}" for r in summary["selected_against_t"]["rows"]))
-        if "k_of_t_fit" in summary:
-            fit = summary["k_of_t_fit"]
-            print(f"k ~ (t/R)^b, b = {fit['exponent']:.2f} +- {fit['standard_error']:.2f} (thesis: -1/2)")
+    for ramp_variable in ("mu", "stretch"):
+        result = summary[f"ramp_{ramp_variable}"]
+        match = result["thresholds_matching_thesis"]
+        print(f"{ramp_variable} ramped: thresholds giving the thesis's k for all p in {result['matched_p']}: "
+              + (f"{match[0]:.3g} ... {match[-1]:.3g}" if match else "none"))
+        for q in result["matched_p"]:
+            if result.get(f"k_at_threshold_p{q:g}"):
+                print(f"  at the threshold giving p = {q:g} its k = {THESIS_K[q]}: k by p "
+                      f"{result[f'k_at_threshold_p{q:g}']}")
+        if "selected_against_t" in result:
+            rows = result["selected_against_t"]["rows"]
+            print(f"  against t/R at p = {args.p:g}: " + ", ".join(f"{r['t']:g} -> {r['k']}" for r in rows))
+        if "k_of_t_fit" in result:
+            fit = result["k_of_t_fit"]
+            print(f"  k ~ (t/R)^b, b = {fit['exponent']:.2f} +- {fit['standard_error']:.2f} (thesis: -1/2)")
     return summary
 
 

@@ -181,7 +181,7 @@ def test_quick_growth_selection_starts_at_the_onset_wave_number(tmp_path):
 
     summary = main(["--quick", "--out", str(tmp_path)])
     assert summary["cases"][0]["k_first_unstable"] == 2
-    with open(tmp_path / "selection.csv") as f:
+    with open(tmp_path / "selection_mu.csv") as f:
         ks = [int(r["k_p10_t0.01"]) for r in csv.DictReader(f) if r["k_p10_t0.01"] not in ("", "None")]
     assert ks[0] == 2 and ks[-1] > 2
     assert all(b >= a for a, b in zip(ks, ks[1:]))
