@@ -178,16 +178,15 @@ def run(out: str, *, ps, ts=(), p: float = 10.0, t: float = 0.01, n0: float = 1e
         curves[case] = eigenvalue_table(run_dir.file(name), n0=n0, nR=nR, p=case[0], t=case[1], maxh=maxh,
                                         order=order, mu_low=mu_low, points=points, ks=ks, progress=progress)
         progress(f"p = {case[0]:g} t = {case[1]:g}: {time.perf_counter() - clock:.0f} s")
-    summary: dict = {"cases": [{"p": q, "t": s, "k_first_unstable": ks[int(np.argmin(curves[(q, s)][2][
-                                    np.argmax(np.any(curves[(q, s)][2] < 0, axis=1))]))],
+    analyses = {ramp_variable: analyse(curves, ks, ramp_variable=ramp_variable, p=p,
+                                       csv_path=run_dir.file(f"selection_{ramp_variable}.csv"))
+                for ramp_variable in ("mu", "stretch")}
+    # the first to lose stability: selected at the smallest threshold (its zero crossing, interpolated)
+    summary: dict = {"cases": [{"p": q, "t": s, "k_first_unstable": analyses["mu"]["table"][(q, s)][0],
                                 "k_most_unstable_end": ks[int(np.argmin(curves[(q, s)][2][-1]))]} for q, s in cases],
                      "thesis_k": {f"{q:g}": k for q, k in THESIS_K.items()}}
-    analyses = {}
-    for ramp_variable in ("mu", "stretch"):
-        analyses[ramp_variable] = analyse(curves, ks, ramp_variable=ramp_variable, p=p,
-                                          csv_path=run_dir.file(f"selection_{ramp_variable}.csv"))
-        summary[f"ramp_{ramp_variable}"] = {k: v for k, v in analyses[ramp_variable].items()
-                                            if k not in ("table", "thresholds")}
+    for ramp_variable, result in analyses.items():
+        summary[f"ramp_{ramp_variable}"] = {k: v for k, v in result.items() if k not in ("table", "thresholds")}
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
     plot_selection(analyses, run_dir.file("selection.png"))
