@@ -275,7 +275,8 @@ def plate_row(summary: dict) -> dict:
 def sweep(out: str, ps, *, run_one: Callable[..., dict] | None = None, row: Callable[[dict], dict] = plate_row,
           draw: Callable | None = None, **options) -> list[dict]:
     """``run_one`` (default: this script's ``run``) for every grading exponent in ``ps``, one
-    folder each; the table of ``row(summary)`` and the end profiles drawn by ``draw`` in ``out``."""
+    folder each; the table of ``row(summary)`` and the end profiles (of the runs that write
+    ``profile_end.csv``) drawn by ``draw`` in ``out``."""
     run_one = run if run_one is None else run_one
     run_dir = RunDirectory(out, params={"ps": list(ps), **options})
     rows, profiles = [], {}
@@ -284,11 +285,12 @@ def sweep(out: str, ps, *, run_one: Callable[..., dict] | None = None, row: Call
             folder = run_dir.file(f"p{p:g}")
             rows.append({"p": p, **row(run_one(str(folder), p=p, **options))})
             table.append(rows[-1])
-            profiles[p] = np.loadtxt(folder / "profile_end.csv", delimiter=",", skiprows=1)
-    if draw is None:
+            if (folder / "profile_end.csv").exists():  # runs of a path have one; onset curves do not
+                profiles[p] = np.loadtxt(folder / "profile_end.csv", delimiter=",", skiprows=1)
+    if profiles and draw is None:
         plot_profiles(profiles, run_dir.file("profiles.png"),
                       title=", ".join(f"{k} = {options[k]:g}" for k in ("n0", "nR", "t") if k in options))
-    else:
+    elif profiles:
         draw(profiles, run_dir.file("profiles.png"))
     for line in rows:
         print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in line.items()))
@@ -383,7 +385,7 @@ def lowest_eigenvalue(hs: HarmonicStability, k: int) -> float:
 
 def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,
                 step: float, ks: list[int], tolerance: float = 1e-6, radii: np.ndarray | None = None,
-                progress=None, onsets: bool = True) -> list[WaveOnset]:
+                profile: Callable | None = None, progress=None, onsets: bool = True) -> list[WaveOnset]:
     """The onset ``mu_c(k)`` of every wave number in ``ks`` on the flat path: the soft stretch is
     ramped to ``target`` in steps of at most ``step`` (no branch switching: the mid-plane symmetric
     flat state is followed also where it is unstable), every state is scanned over the ks still
@@ -391,10 +393,15 @@ def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[f
     earlier one (``first_harmonic_instability`` with ``ks = [k]``) to ``tolerance`` in the stretch.
     The critical mode's deflection gives the penetration depths: the distance from the rim over
     which ``|w|`` stays above half, and above 5 %, of its value at the rim (``radii``: mid-plane
-    samples, default 1001 points on (0, 1]). The problem is left at the end of the path.
+    samples, default 1001 points on (0, 1]); ``profile(hs, k, vector) -> (positions, amplitude)``
+    replaces that sampling for other bodies (the depth is measured from the largest position).
+    The problem is left at the end of the path.
     ``onsets=False``: only the lowest eigenvalue of every k at the end (no scans on the way, no
     bisection; every ``found`` is False)."""
     radii = np.linspace(0.0, 1.0, 1001)[1:] if radii is None else radii
+    if profile is None:
+        def profile(hs, k, vector):
+            return radii, mode_deflection(hs, k, vector, radii)
     hs = HarmonicStability(prob)
     scan = hs.scan(ks, exclude_rigid=True)
     if scan.unstable:
@@ -429,9 +436,9 @@ def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[f
                                            stability=hs)
         if not onset.found:
             raise RuntimeError(f"k = {k}: the instability seen at s = {s_hi} was not found again on bisection")
-        w = mode_deflection(hs, k, onset.spectrum.modes[:, 0], radii)
+        where, w = profile(hs, k, onset.spectrum.modes[:, 0])
         result.append(WaveOnset(k, True, onset.parameter, mismatch_strain(onset.parameter, *nv)[0],
-                                penetration_depth(w, radii, fraction=0.5), penetration_depth(w, radii, fraction=0.05),
+                                penetration_depth(w, where, fraction=0.5), penetration_depth(w, where, fraction=0.05),
                                 lowest_end[k]))
         if progress is not None:
             progress(f"k = {k}: mu_c = {result[-1].mu:+.6f}, depth (half) {result[-1].depth_half:.3f}")
@@ -448,6 +455,21 @@ def local_minima(onsets: list[WaveOnset]) -> list[WaveOnset]:
     padded = np.concatenate([[math.inf], mu, [math.inf]])
     found = [o for i, o in enumerate(onsets) if o.found and mu[i] <= padded[i] and mu[i] <= padded[i + 2]]
     return sorted(found, key=lambda o: o.mu)
+
+
+def continuous_critical_wave_number(onsets: list[WaveOnset]) -> float | None:
+    """The minimiser of the parabola through ``mu_c`` at the first-unstable k and its two
+    neighbours: the critical wave number as a real number (how the selection drifts between
+    integers as a parameter changes). None if a neighbour is missing or never goes unstable."""
+    found = {o.k: o.mu for o in onsets if o.found}
+    if not found:
+        return None
+    k = min(found, key=found.get)
+    if k - 1 not in found or k + 1 not in found:
+        return None
+    left, mid, right = found[k - 1], found[k], found[k + 1]
+    curvature = left - 2 * mid + right
+    return float(k + 0.5 * (left - right) / curvature) if curvature > 0 else None
 
 
 def onset_curve_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,

@@ -28,7 +28,8 @@ import numpy as np
 
 from geometries import tube_section
 from geometries.fields import axial_grading
-from graded_plate import CHI, add_grading_options, mismatch_strain, scan_path, soft_stretch_load, sweep
+from graded_plate import (CHI, add_grading_options, continuous_critical_wave_number, local_minima, mismatch_strain,
+                          onset_curve, scan_path, soft_stretch_load, sweep)
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 
@@ -125,6 +126,49 @@ def run(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float = 10.0, t: flo
     return summary
 
 
+def onset_curve_case(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float = 10.0, t: float = 0.02, L: float = 2.0,
+                     maxh: float = 0.05, order: int = 3, mu0: float = -1.0, kmax: int = 20, quick: bool = False) -> dict:
+    """Onset ``mu_c(k)`` of every wave number k = 1 .. kmax on the axisymmetric (trumpet) path
+    (``graded_plate.onset_curve``; each k bisected alone) with the penetration depth of each
+    critical mode from the head, the first-unstable ``k_c`` and the continuous critical wave
+    number (``continuous_critical_wave_number``: how ``k_c`` drifts between integers with p)."""
+    if quick:
+        maxh, order, kmax = max(maxh, 0.1), 2, min(kmax, 12)
+    run_dir = RunDirectory(out, params=dict(n0=n0, nL=nL, p=p, t=t, L=L, Ri=RI, maxh=maxh, order=order, mu0=mu0,
+                                            kmax=kmax, chi=CHI, quick=quick, mode="onset curve"))
+    start = time.perf_counter()
+    prob, stretch = build(n0=n0, nL=nL, p=p, t=t, L=L, maxh=maxh, order=order, mu0=mu0)
+    stretch_end = FloryRehnerGel(Nv=min(n0, nL), chi=CHI).lam_free(0.0)
+    heights = np.linspace(0.0, L, 201)
+    points = [prob.mesh(RI + t / 2, float(Z)) for Z in heights]
+
+    def profile(hs, k, vector):  # |u_r, u_theta| of the mode along the mid-wall; depth from the head
+        a, _, c = hs.mode(k, vector)
+        return heights, np.array([math.hypot(a(q), c(q)) for q in points])
+
+    onsets = onset_curve(prob, stretch, nv=(n0, nL), target=stretch_end, step=(stretch_end - stretch.Get()) / 50,
+                         ks=list(range(1, kmax + 1)), profile=profile, progress=Progress(f"tube onset curve p = {p:g}"))
+    with History(run_dir.file("onset_curve.csv")) as table:
+        for o in onsets:
+            table.append({"k": o.k, "found": o.found, "soft_stretch_c": o.soft_stretch, "mu_c": o.mu,
+                          "depth_half": o.depth_half, "depth_5pct": o.depth_5pct, "lowest_end": o.lowest_end})
+    minima = local_minima(onsets)
+    summary = {"p": p, "t": t, "L": L, "maxh": maxh, "kmax": kmax, "found": bool(minima),
+               "local_minima": [{"k": o.k, "mu_c": o.mu} for o in minima],
+               "k_continuous": continuous_critical_wave_number(onsets)}
+    if minima:
+        summary.update(k_critical=minima[0].k, mu_critical=minima[0].mu, depth_half_critical=minima[0].depth_half,
+                       k_at_scan_limit=minima[0].k == kmax)
+    summary["wall_s"] = time.perf_counter() - start
+    run_dir.write_json("summary.json", summary)
+    return summary
+
+
+def onset_row(summary: dict) -> dict:
+    keys = ("found", "k_critical", "k_continuous", "mu_critical", "depth_half_critical", "k_at_scan_limit", "wall_s")
+    return {k: summary.get(k, math.nan) for k in keys}
+
+
 def tube_row(summary: dict) -> dict:
     """One line of a sweep table."""
     keys = ("found", "k_critical", "k_at_scan_limit", "mu_critical", "penetration_depth", "mu_end",
@@ -158,9 +202,13 @@ def main(argv=None) -> dict:
     parser.add_argument("--L", type=float, default=2.0, help="height / inner radius")
     parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the base")
     parser.add_argument("--nL", type=float, default=1e-3, help="Nv at the head")
+    parser.add_argument("--onset-curve", action="store_true",
+                        help="onset mu_c(k) of every k = 1 .. kmax on the trumpet path and the continuous critical k")
     args = parser.parse_args(argv)
     options = dict(n0=args.n0, nL=args.nL, t=args.t, L=args.L, maxh=args.maxh, order=args.order, mu0=args.mu0, kmax=args.kmax,
                    quick=quick_run(args))
+    if args.onset_curve:
+        return {"sweep": sweep(args.out, args.sweep or [args.p], run_one=onset_curve_case, row=onset_row, **options)}
     if args.sweep:
         return {"sweep": sweep(args.out, args.sweep, run_one=run, row=tube_row, draw=plot, **options)}
     summary = run(args.out, p=args.p, **options)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -185,3 +186,16 @@ def test_quick_growth_selection_starts_at_the_onset_wave_number(tmp_path):
         ks = [int(r["k_p10_t0.01"]) for r in csv.DictReader(f) if r["k_p10_t0.01"] not in ("", "None")]
     assert ks[0] == 2 and ks[-1] > 2
     assert all(b >= a for a, b in zip(ks, ks[1:]))
+
+
+def test_continuous_critical_wave_number_is_the_vertex_of_the_onset_parabola():
+    from graded_plate import WaveOnset, continuous_critical_wave_number
+
+    def onsets(vertex, ks, missing=()):
+        return [WaveOnset(k, k not in missing, math.nan, -0.2 + 0.01 * (k - vertex) ** 2 if k not in missing else math.nan,
+                          math.nan, math.nan, -1.0) for k in ks]
+
+    assert continuous_critical_wave_number(onsets(10.3, range(2, 20))) == pytest.approx(10.3, rel=1e-12)
+    assert continuous_critical_wave_number(onsets(9.7, range(2, 20))) == pytest.approx(9.7, rel=1e-12)
+    assert continuous_critical_wave_number(onsets(10.3, range(2, 20), missing=(11,))) is None  # a neighbour never unstable
+    assert continuous_critical_wave_number(onsets(19.2, range(2, 20))) is None  # the minimum at the end of the scan
