@@ -36,10 +36,11 @@ import time
 import numpy as np
 import ngsolve as ngs
 
-from bench_shell import disk_circle_values, graded_plate_shell, plate_mode_wave
-from ngsgel import NewtonError, follow_path, ramp
+from bench_shell import GRADED_N0, GRADED_NR, disk_circle_values, graded_plate_shell, plate_mode_wave
+from ngsgel import FloryRehnerGel, NewtonError, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
-from ngsgel.relaxation import settle_after
+from ngsgel.relaxation import settle, settle_after
+from ngsgel.stepping import RampError
 from ngsgel.stability import free_matrix, negative_count
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import penetration_depth, wave_number
@@ -221,6 +222,74 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     return summary
 
 
+def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, t: float = 0.01, maxh: float = 0.2,
+                   order: int = 3, mu_start: float = QUICK_MU_START, step: float = 0.01,
+                   realcompile: bool = True) -> dict:
+    """Whether the wave number ``k`` is a stable pattern of the disk at ``mu = 0`` when a run is
+    seeded with it (the thesis's runs seeded "an infinitesimal initial geometry imperfection" of
+    unstated shape): the half disk carries a transverse dead load ``load * D / R^4 * cos(k theta)
+    (r/R)^k`` (``D = G t^3 / 6`` of the stiff gel, ``R = 1``), is swollen from ``mu_start`` to 0 by
+    natural steps (the k-fold path; the exact negative count and the rim waves at every state),
+    then the seed load is removed at ``mu = 0`` and the disk relaxed to a stable state
+    (``ngsgel.relaxation.settle``: Newton-like where the state is stable). Reported: the rim
+    deflection the seed makes at ``mu_start`` (over t), the path's negative counts, and the end
+    state's wave number, purity, amplitude, energy and lowest eigenvalue - k "survives" if the end
+    state's dominant wave is still k."""
+    if not (isinstance(k, int) and k >= 2):
+        raise ValueError(f"k must be an integer >= 2, got {k!r}")
+    if not load > 0:
+        raise ValueError(f"load must be > 0, got {load!r}")
+    if not mu_start < 0:
+        raise ValueError(f"mu_start must be < 0, got {mu_start!r}")
+    run_dir = RunDirectory(out, params=dict(p=p, k=k, load=load, t=t, maxh=maxh, order=order, mu_start=mu_start,
+                                            step=step, realcompile=realcompile, mode="seeded pattern"))
+    progress = Progress(f"seeded k = {k}, p = {p:g}")
+    start = time.perf_counter()
+    shell, mesh, _ = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=True)
+    stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=shell.material.chi)
+    scale = ngs.Parameter(1.0)
+    r = ngs.sqrt(ngs.x * ngs.x + ngs.y * ngs.y)
+    q = load * stiff.shear_modulus(shell.lam0) * t**3 / 6 * ngs.cos(k * ngs.atan2(ngs.y, ngs.x)) * r**k
+    shell.add_surface_load(".*", (0.0, 0.0, scale * q))
+    rim = RimWaves(shell, mesh, half=True)
+    ramp(shell, shell.mu, mu_start, step=0.25)
+    seeded = rim.values()
+    rows = []
+
+    def record(value, _newton=None) -> None:
+        with ngs.TaskManager():
+            negative = negative_count(free_matrix(shell.tangent(shell.state), shell.free_mask))
+        rows.append({"mu": value, "negative": negative, **rim.values()})
+        history.append(rows[-1])
+        progress(f"mu = {value:+.5f}: negative {negative}, rim k = {rows[-1]['rim_k']} "
+                 f"(amplitude {rows[-1]['rim_amplitude']:.3g}, purity {rows[-1]['rim_purity']:.2f})")
+
+    stall = None
+    with History(run_dir.file("path.csv")) as history:
+        record(mu_start)
+        try:
+            ramp(shell, shell.mu, 0.0, step=step, max_step=5 * step, min_step=step / 1000, on_step=record)
+        except RampError as exc:  # the seeded branch folds before mu = 0: kept in the report
+            stall = {"mu": shell.mu.Get(), "message": str(exc)}
+            progress(f"stalled at mu = {shell.mu.Get():+.5f}: {exc}")
+    with_load = rim.values()
+    scale.Set(0.0)
+    relaxed = settle(shell, parameter=shell.mu, progress=progress)
+    end = rim.values()
+    summary = {"p": p, "k_seeded": k, "seed_rim_amplitude_over_t": seeded["rim_a%d" % k] / t if k <= RIM_MODES else None,
+               "stall": stall, "mu_end": shell.mu.Get(), "max_negative_on_path": max(r["negative"] for r in rows),
+               "rim_with_seed": with_load, "rim_end": end, "k_end": end["rim_k"], "survives": end["rim_k"] == k,
+               "energy_end": shell.energy(), "lowest_eigenvalue_end": relaxed.lowest_eigenvalue,
+               "settle_steps": relaxed.steps, "settle_distance": relaxed.distance,
+               "penetration_depth": pattern_depth(shell, mesh, int(end["rim_k"]), half=True) if end["rim_k"] else None,
+               "wall_s": time.perf_counter() - start}
+    run_dir.write_json("summary.json", summary)
+    np.savez(run_dir.file("state_end.npz"), state=shell.save_state(), mu=shell.mu.Get())
+    plot_shape(shell, mesh, run_dir.file("shape_end.png"), title=f"p = {p:g}, seeded k = {k}, mu = {shell.mu.Get():.3g}",
+               half=True)
+    return summary
+
+
 def plot_shape(shell, mesh: ngs.Mesh, path, *, title: str, half: bool = False) -> None:
     """Deflection map on a polar grid (reference positions) and the deflection on the rim circle
     (``half``: mirrored from the half disk)."""
@@ -268,7 +337,17 @@ def main(argv=None) -> dict:
                         help="with --watch-after-first-switch: where the followed branch loses stability, snap "
                              "(overdamped relaxation to a stable state) and follow the branch it lands on")
     parser.add_argument("--snap-overshoot", type=float, default=1e-3, help="mu beyond the critical value to snap at")
+    parser.add_argument("--seed-wave", type=int, help="instead: seed this wave number (half disk, transverse "
+                        "dead load), swell to mu = 0, remove the seed and relax (seeded_pattern)")
+    parser.add_argument("--seed-load", type=float, default=1e-3, help="seed load in units of D / R^4")
     args = parser.parse_args(argv)
+    if args.seed_wave is not None:
+        summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, t=args.t,
+                                 maxh=args.maxh, order=args.order, realcompile=not args.no_realcompile,
+                                 **({} if args.mu_start is None else {"mu_start": args.mu_start}))
+        print(json.dumps({k: v for k, v in summary.items() if k not in ("rim_with_seed", "penetration_depth")},
+                         default=str, indent=1))
+        return summary
     summary = run(args.out, p=args.p, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
                   max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
                   maxit=args.maxit, half=args.half,

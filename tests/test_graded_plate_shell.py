@@ -41,3 +41,10 @@ def test_quick_run_switches_onto_the_saddle_at_the_converged_onset(tmp_path):
     assert summary["negative_end"] == 0 and summary["mu_end"] > onset["mu"]
     assert summary["rim_end"]["rim_k"] == 2 and summary["rim_end"]["rim_purity"] > 0.9
     assert summary["rim_end"]["rim_amplitude"] > 0.1 * 0.01
+
+
+@pytest.mark.parametrize("options, match", [({"k": 1}, "k must be"), ({"k": 8, "load": 0.0}, "load must be"),
+                                            ({"k": 8, "mu_start": 0.0}, "mu_start must be")])
+def test_seeded_pattern_rejects_bad_input_before_work(tmp_path, options, match):
+    with pytest.raises(ValueError, match=match):
+        graded_plate_shell.seeded_pattern(str(tmp_path), p=10.0, **options)
