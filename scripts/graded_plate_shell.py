@@ -230,7 +230,8 @@ def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, t: float =
     unstated shape): the half disk carries a transverse dead load ``load * D / R^4 * cos(k theta)
     (r/R)^k`` (``D = G t^3 / 6`` of the stiff gel, ``R = 1``), is swollen from ``mu_start`` to 0 by
     natural steps (the k-fold path; the exact negative count and the rim waves at every state),
-    then the seed load is removed at ``mu = 0`` and the disk relaxed to a stable state
+    then the seed load is removed at ``mu = 0``, or where the steps stall (a fold of the seeded
+    path: ``stall`` in the summary, ``mu_end`` there), and the disk relaxed to a stable state
     (``ngsgel.relaxation.settle``: Newton-like where the state is stable). Reported: the rim
     deflection the seed makes at ``mu_start`` (over t), the path's negative counts, and the end
     state's wave number, purity, amplitude, energy and lowest eigenvalue - k "survives" if the end
