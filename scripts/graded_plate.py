@@ -457,6 +457,14 @@ def local_minima(onsets: list[WaveOnset]) -> list[WaveOnset]:
     return sorted(found, key=lambda o: o.mu)
 
 
+def write_onset_curve(path, onsets: list[WaveOnset]) -> None:
+    """``onset_curve.csv``: one row per wave number."""
+    with History(path) as table:
+        for o in onsets:
+            table.append({"k": o.k, "found": o.found, "soft_stretch_c": o.soft_stretch, "mu_c": o.mu,
+                          "depth_half": o.depth_half, "depth_5pct": o.depth_5pct, "lowest_end": o.lowest_end})
+
+
 def continuous_critical_wave_number(onsets: list[WaveOnset]) -> float | None:
     """The minimiser of the parabola through ``mu_c`` at the first-unstable k and its two
     neighbours: the critical wave number as a real number (how the selection drifts between
@@ -493,10 +501,7 @@ def onset_curve_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float =
     step = (stretch_end - stretch.Get()) / (25 if quick else 60)
     onsets = onset_curve(prob, stretch, nv=(n0, nR), target=stretch_end, step=step, ks=list(range(1, kmax + 1)),
                          progress=Progress(f"onset curve p = {p:g}, t = {t:g}"), onsets=not end_only)
-    with History(run_dir.file("onset_curve.csv")) as table:
-        for o in onsets:
-            table.append({"k": o.k, "found": o.found, "soft_stretch_c": o.soft_stretch, "mu_c": o.mu,
-                          "depth_half": o.depth_half, "depth_5pct": o.depth_5pct, "lowest_end": o.lowest_end})
+    write_onset_curve(run_dir.file("onset_curve.csv"), onsets)
     minima = local_minima(onsets)
     summary: dict = {"p": p, "t": t, "maxh": maxh, "layers": layers, "order": order, "kmax": kmax,
                      "ndof_section": prob.space.ndof, "found": bool(minima),

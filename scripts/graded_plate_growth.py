@@ -125,7 +125,8 @@ def analyse(curves: dict, ks: list[int], *, ramp_variable: str, p: float, csv_pa
                 table[(q, s)].append(k)
                 row[f"k_p{q:g}_t{s:g}"], row[f"at_p{q:g}_t{s:g}"] = k, at
             out_table.append(row)
-    at_thesis_t = {q: table[(q, s)] for q, s in curves if math.isclose(s, 0.01)}  # fig. 5-3 B is t/R = 0.01
+    thesis_cases = {q: (q, s) for q, s in curves if math.isclose(s, 0.01)}  # fig. 5-3 B is t/R = 0.01
+    at_thesis_t = {q: table[case] for q, case in thesis_cases.items()}
     result: dict = {"ramp": ramp_variable, "matched_p": [q for q in THESIS_K if q in at_thesis_t],
                     "thresholds_matching_thesis": matching_thresholds(thresholds, at_thesis_t, THESIS_K)}
     for q in result["matched_p"]:
@@ -133,8 +134,8 @@ def analyse(curves: dict, ks: list[int], *, ramp_variable: str, p: float, csv_pa
         result[f"thresholds_p{q:g}"] = [alone[0], alone[-1]] if alone else []
         if alone:  # the other p at the threshold that gives this p its thesis k
             T = geometric_middle(alone)
-            result[f"k_at_threshold_p{q:g}"] = {f"{r:g}": selected(curves[(r, 0.01)][column], curves[(r, 0.01)][2],
-                                                                   ks, T)[0] for r in at_thesis_t}
+            result[f"k_at_threshold_p{q:g}"] = {f"{r:g}": selected(curves[case][column], curves[case][2], ks, T)[0]
+                                                for r, case in thesis_cases.items()}
     if THESIS_K.get(p) and result.get(f"thresholds_p{p:g}"):
         T = geometric_middle(result[f"thresholds_p{p:g}"])
         rows = sorted((s, *selected(curves[(q, s)][column], curves[(q, s)][2], ks, T)) for q, s in curves if q == p)

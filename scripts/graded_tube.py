@@ -29,7 +29,7 @@ import numpy as np
 from geometries import tube_section
 from geometries.fields import axial_grading
 from graded_plate import (CHI, add_grading_options, continuous_critical_wave_number, local_minima, mismatch_strain,
-                          onset_curve, scan_path, soft_stretch_load, sweep)
+                          onset_curve, scan_path, soft_stretch_load, sweep, write_onset_curve)
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 
@@ -148,10 +148,7 @@ def onset_curve_case(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float =
 
     onsets = onset_curve(prob, stretch, nv=(n0, nL), target=stretch_end, step=(stretch_end - stretch.Get()) / 50,
                          ks=list(range(1, kmax + 1)), profile=profile, progress=Progress(f"tube onset curve p = {p:g}"))
-    with History(run_dir.file("onset_curve.csv")) as table:
-        for o in onsets:
-            table.append({"k": o.k, "found": o.found, "soft_stretch_c": o.soft_stretch, "mu_c": o.mu,
-                          "depth_half": o.depth_half, "depth_5pct": o.depth_5pct, "lowest_end": o.lowest_end})
+    write_onset_curve(run_dir.file("onset_curve.csv"), onsets)
     minima = local_minima(onsets)
     summary = {"p": p, "t": t, "L": L, "maxh": maxh, "kmax": kmax, "found": bool(minima),
                "local_minima": [{"k": o.k, "mu_c": o.mu} for o in minima],
