@@ -34,13 +34,17 @@ from dataclasses import dataclass
 import numpy as np
 import ngsolve as ngs
 import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
+import scipy.linalg
 
 from .kinematics import Axisymmetric
 from .newton import NewtonError
 from .stability import Spectrum, free_matrix, load_rate, spectrum
 from .stepping import ramp
 
-__all__ = ["HarmonicStability", "HarmonicScan", "InstabilityOnset", "first_harmonic_instability"]
+_DENSE_LIMIT = 8000  # unknowns of one wave number for the dense linear buckling solve
+
+__all__ = ["HarmonicStability", "HarmonicScan", "InstabilityOnset", "first_harmonic_instability", "stress_rate"]
 
 
 class _HarmonicSystem:
@@ -231,6 +235,43 @@ class HarmonicStability:
             comp.Set(value)
         return gf.vec.FV().NumPy().copy()
 
+    def geometric_stiffness(self, k: int, stress) -> sp.csc_matrix:
+        """Free-dof initial-stress matrix of wave number ``k`` for a second Piola–Kirchhoff stress
+        field ``stress`` of the swollen reference (3x3 in the r, z, theta basis; e.g.
+        ``stress_rate``): the second variation of ``int S : (F^T F) / 2`` at fixed ``S`` for the
+        harmonic perturbation, ``S : (A^T A)`` per unit volume and phase (as in ``matrices``)."""
+        k = _check_k(k)
+        X, _, _, free, zero, weight = self._forms(k)
+        A, B = self._perturbations(k, X.TrialFunction())
+        if k == 0:
+            density = 0.5 * ngs.InnerProduct(stress, (A + B).trans * (A + B))
+        else:
+            density = 0.25 * (ngs.InnerProduct(stress, A.trans * A) + ngs.InnerProduct(stress, B.trans * B))
+        form = ngs.BilinearForm(X, symmetric=True)
+        form += ngs.Variation(self.problem.kinematics.volume_weight() * density * ngs.dx)
+        form.AssembleLinearization(zero.vec)
+        return free_matrix(form.mat, free)
+
+    def linear_buckling(self, k: int, stress, *, count: int = 1) -> np.ndarray:
+        """Load multipliers ``lambda`` of the linear buckling problem of wave number ``k``,
+        ``(K_k + lambda G_k) phi = 0`` with ``K_k`` the tangent of the current (stable) state and
+        ``G_k`` the initial-stress matrix of ``stress`` (the stress per unit load increment:
+        ``stress_rate``): the eigenvalue buckling step of commercial codes (Abaqus ``*BUCKLE``),
+        whose modes are the usual seeds of imperfections. The ``count`` smallest positive ones,
+        ascending (``inf`` where the increment compresses nothing this mode can use); ``k = 0, 1``
+        need a tangent without rigid motions."""
+        K, _, _ = self.matrices(k)
+        G = self.geometric_stiffness(k, stress)
+        n = K.shape[0]
+        if n > _DENSE_LIMIT:
+            raise ValueError(f"{n} unknowns for k = {k}: the dense linear buckling solve takes at most {_DENSE_LIMIT}")
+        # -G phi = w K phi with w = 1 / lambda: the largest positive w are the smallest lambda. A
+        # dense solve: the w spectrum spans both signs (the reversed increment buckles too) with
+        # huge values from the soft modes of thin sections, where Lanczos did not converge.
+        count = min(count, n)
+        w = scipy.linalg.eigh(-G.toarray(), K.toarray(), eigvals_only=True, subset_by_index=[n - count, n - 1])
+        return np.array([1.0 / v if v > 0 else np.inf for v in w[::-1]])
+
     def scan(self, ks: Iterable[int], *, count: int = 1, exclude_rigid: bool = False) -> HarmonicScan:
         """Lowest eigenvalues for each wave number in ``ks``."""
         spectra = {int(k): self.spectrum(k, count=count, exclude_rigid=exclude_rigid) for k in ks}
@@ -329,6 +370,46 @@ def first_harmonic_instability(problem, parameter: ngs.Parameter, target: float,
     k_crit = sc.critical_k
     solve_at(lo, x_lo)
     return InstabilityOnset(True, 0.5 * (lo + hi), k_crit, sc.spectra[k_crit], path)
+
+
+def stress_rate(problem, parameter: ngs.Parameter, *, relative_step: float = 1e-6) -> ngs.CoefficientFunction:
+    """Rate of the second Piola–Kirchhoff stress of the swollen reference (``J F^-1 sigma F^-T``,
+    r-z-theta basis) with the load ``parameter`` along the linearised path of the current
+    converged state: the state rate ``dx/dlambda = -K^-1 dR/dlambda`` (constrained dofs at their
+    prescribed rate), then central differences of the stress along the straight line
+    ``(x + eps dx/dlambda, lambda + eps)``, ``eps = relative_step * max(|lambda|, 1)`` (a
+    difference of predicted states instead is spoiled by the predictor's second-order error,
+    large where ``mu`` depends steeply on the load, near the dry state), interpolated elementwise
+    (discontinuous polynomials of the problem's order). Leaves the state and the parameter as
+    they were."""
+    if not 0 < relative_step < 1e-2:
+        raise ValueError(f"relative_step must be in (0, 1e-2), got {relative_step!r}")
+    start, state = parameter.Get(), problem.save_state()
+    free = problem.free_mask
+    # near the dry state the gel's bulk stiffness (~1 / (J (J - 1))) turns a relative error of
+    # 1e-5 in the state rate into a stress rate larger than a graded disk's mismatch stresses
+    rate = load_rate(problem, parameter, relative_step=relative_step)
+    dx = rate.prescribed.copy()
+    dx[free] = -spsolve(free_matrix(problem.tangent(problem.state), free), rate.residual)
+    eps = relative_step * max(abs(start), 1.0)
+    u = problem.displacement
+    F = problem.deformation_gradient(u)
+    S = ngs.Det(F) * ngs.Inv(F) * problem.cauchy_stress(u, problem.mu) * ngs.Inv(F).trans
+    space = ngs.L2(problem.mesh, order=problem.order) ** 9
+    values = []
+    try:
+        for sign in (1.0, -1.0):
+            parameter.Set(start + sign * eps)
+            problem.restore_state(state + sign * eps * dx)
+            gf = ngs.GridFunction(space)
+            gf.Set(S.Reshape((9,)))
+            values.append(gf.vec.FV().NumPy().copy())
+    finally:
+        parameter.Set(start)
+        problem.restore_state(state)
+    result = ngs.GridFunction(space)
+    result.vec.FV().NumPy()[:] = (values[0] - values[1]) / (2 * eps)
+    return ngs.CF(tuple(result.components), dims=(3, 3))
 
 
 def _split(boundaries: Iterable[str]) -> list[str]:

@@ -80,7 +80,7 @@ class LinearSolver:
 def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
            xtol: float = 1e-13, maxit: int = 30, min_step: float = 2.0**-12,
            raise_on_failure: bool = True, reuse_factorisation: bool = False,
-           chord_rate: float = 0.25) -> NewtonResult:
+           chord_rate: float = 0.25, stall_window: int | None = None) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
 
     Converged when the free residual's norm falls below ``max(atol, rtol * r_max)`` (``r_max``
@@ -99,7 +99,14 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     step until the next factorisation. ``iterations`` (and ``maxit``) count the full Newton
     iterations, ``chord_steps`` the kept chord steps; their number is bounded since each cuts the
     residual by ``chord_rate``.
+
+    ``stall_window``: give up early when ``stall_window`` full iterations have not halved the
+    free residual (Newton wandering where there is no solution nearby, e.g. a load step past a
+    limit point): a caller that cuts its step on failure then does so after that many
+    iterations instead of ``maxit``. ``None``: only ``maxit`` ends a solve.
     """
+    if stall_window is not None and not (isinstance(stall_window, int) and stall_window >= 1):
+        raise ValueError(f"stall_window must be an integer >= 1 or None, got {stall_window!r}")
     x = system.state
     free = system.free_mask
     x0 = x.CreateVector()
@@ -131,6 +138,8 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     r_max = rnorm
     result.residuals.append(rnorm)
     chord_ok = reuse_factorisation and solver.current is not None
+    # free residual norm after every full iteration since the prescribed values are met
+    after_iteration = [] if mismatch.any() else [rnorm]
     clock = time.perf_counter()  # a rejected chord step is charged to the full iteration after it
     for it in range(maxit + 1):
         while True:  # convergence test, then chord steps while they pay
@@ -202,6 +211,12 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         if alpha == 1.0 and step_max <= xtol and not mismatch.any():
             result.converged = True
             return result
+        if not mismatch.any():
+            after_iteration.append(rnorm)
+        if (stall_window is not None and len(after_iteration) > stall_window
+                and rnorm > 0.5 * after_iteration[-1 - stall_window]):
+            return fail(f"stalled: {stall_window} iterations did not halve the residual (now {rnorm:.3e}, "
+                        f"iteration {it + 1})")
     return fail(f"no convergence in {maxit} iterations (residual {rnorm:.3e}, target "
                 f"{max(atol, rtol * r_max):.3e})")
 

@@ -33,8 +33,9 @@ class SettleResult:
     """``energy_drop``: energy at the start minus at the end (>= 0 up to round-off; at a new
     prescribed displacement counted from the first state that meets it); ``distance``:
     ``|x_end - x_start|_M / sqrt(volume)`` (root-mean-square displacement); ``steps`` /
-    ``rejected``: pseudo-time steps kept and refused (each one tangent assembly and
-    factorisation); ``lowest_eigenvalue``: of the end state; ``energies``: after every kept step
+    ``rejected``: pseudo-time steps kept and refused (a kept step costs a tangent assembly and a
+    factorisation, a refused one a factorisation: its state, hence its tangent, is the last one);
+    ``lowest_eigenvalue``: of the end state; ``energies``: after every kept step
     (non-increasing); ``residuals``: free residual norm after every kept step."""
 
     energy_start: float
@@ -112,8 +113,17 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
         if progress is not None:
             progress(message)
 
+    tangent = {}  # the last assembled tangent: its state, matrix and unshifted values
+
     def damped_inverse(tau: float):
-        K = problem.tangent(x)
+        # a refused step leaves the state as it was: shift the same tangent again instead of
+        # reassembling it (the assembly is most of a step's cost, and refusals are common)
+        state = x.FV().NumPy()
+        if "state" not in tangent or not np.array_equal(tangent["state"], state):
+            K = problem.tangent(x)
+            tangent.update(state=state.copy(), matrix=K, values=K.AsVector().FV().NumPy().copy())
+        K = tangent["matrix"]
+        K.AsVector().FV().NumPy()[:] = tangent["values"]
         K.AsVector().data += (1.0 / tau) * mass.AsVector()
         return K, solver.factor(K)
 
@@ -187,6 +197,9 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
         if problem.admissible(trial):
             x.data = trial
             new_energy = problem.energy()
+        # The energy decides even where its changes are near round-off (a flat valley, where every
+        # other step is refused): accepting by the residual there instead ends the flow on the
+        # nearby unstable equilibrium (measured on the graded disk's first snap).
         if not new_energy <= energy + round_off:
             problem.restore_state(saved)
             result.rejected += 1

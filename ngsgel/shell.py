@@ -60,9 +60,11 @@ Limits: each element measures its normal angle against the averaged edge normal;
 degrees of rotation against it ``acos`` degenerates, so runs with large rotations call
 ``update_edge_normals`` between load steps (a strip rolled to a quarter circle this way is exact
 to 4e-5). Membrane locking of curved shells is not treated by Regge interpolation (order 3 gave
-the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %). Assembly costs ~10 ms per
-order-3 element and Newton step on one core (symbolic second derivatives of the layered gel
-energy), so the shell is cheap in unknowns, not yet per unknown.
+the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %). The tangent costs ~6 ms per
+order-3 element and Newton step on 2 threads (graded half disk, 78 triangles: 0.49 s interpreted
+with symbolically differentiated blocks, 0.51 s compiled to C++ after a ~30 s compilation; the
+interpreted default before the symbolic blocks: 0.8-0.9 s), 25x the residual: the shell is
+cheap in unknowns, not yet per unknown.
 """
 
 from __future__ import annotations
@@ -106,7 +108,8 @@ class GelShell(BuiltOnDemand):
     ``mu``: number (held in the ``Parameter`` ``self.mu``); ``order``: displacement order
     (>= 2); ``thickness_points``: Gauss points through the thickness (>= 2); ``penalty``:
     dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``); ``realcompile``:
-    compile the energy's derivatives to C++ (needs a compiler; pays off on long paths).
+    compile the energy's derivatives to C++ (needs a compiler; the tangent is no faster than the
+    interpreted one, the residual 2x: pays off on long paths with many line searches).
     """
 
     def __init__(self, mesh: ngs.Mesh, *, material: FloryRehnerGel, lam0: float, thickness: float,
@@ -319,9 +322,17 @@ class GelShell(BuiltOnDemand):
             mu_ref = ngs.Cross(ngs.specialcf.normal(3), ngs.specialcf.tangential(3))
             energy += on_curve * moment * (omega * mu_ref) * ngs.ds(element_boundary=True)
         form = ngs.BilinearForm(self._space, symmetric=True)
-        # symbolic derivatives: ~15x faster assembly than automatic differentiation; compiled to
-        # C++ (~30 s once per process) the tangent assembles another 2-3x faster
-        form += ngs.Variation(energy).Compile(realcompile=self.realcompile, wait=True)
+        variation = ngs.Variation(energy).Compile(realcompile=self.realcompile, wait=True)
+        # Interpreted, the tangent's blocks are differentiated symbolically once (NGSolve's
+        # "uses_diff" integrators): as fast as the C++-compiled default (forward-mode automatic
+        # differentiation at every point) without its ~30 s compilation. Compiling the
+        # differentiated blocks instead takes over 10 minutes, so a compiled form keeps the default.
+        uses_diff = ngs.ngsglobals.symbolic_integrator_uses_diff
+        ngs.ngsglobals.symbolic_integrator_uses_diff = not self.realcompile
+        try:
+            form += variation
+        finally:
+            ngs.ngsglobals.symbolic_integrator_uses_diff = uses_diff
         self._form = form
         self._scratch = ngs.GridFunction(self._space)
         self._target = ngs.GridFunction(self._space)

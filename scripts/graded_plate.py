@@ -28,13 +28,16 @@ to ``mu = 0`` and bisects the onset ``mu_c(k)`` of every wave number k = 1 .. km
 (with the penetration depths of each critical mode, the local minima of ``mu_c(k)`` and ``k*``,
 the k of the lowest eigenvalue at ``mu = 0``), for every p (``--p``/``--sweep``) and t/R
 (``--t``/``--t-sweep``), with power-law fits of k against t/R; ``--end-only`` computes ``k*``
-alone. What this script does not do: follow the non-axisymmetric post-buckled path
+alone. ``--linear-buckling MU [MU ...]`` instead runs the eigenvalue buckling step of commercial
+codes (Abaqus ``*BUCKLE``) on the flat disk equilibrated at each ``MU``: the order in which such a
+code would list the wave numbers, whose modes are the usual imperfection seeds. What this script does not do: follow the non-axisymmetric post-buckled path
 (``scripts/graded_plate_shell.py``).
 
     python scripts/graded_plate.py --out results/graded_plate [--p 10 --n0 1e-2 --nR 1e-3 --t 0.01] [--quick]
     python scripts/graded_plate.py --out results/softer_centre --n0 1e-3 --nR 1e-2 --sweep 0.25 0.75 2 10
     python scripts/graded_plate.py --out results/onset_curves --onset-curve --sweep 0.25 0.75 2 10 --kmax 50
     python scripts/graded_plate.py --out results/k_star --onset-curve --end-only --t-sweep 0.01 0.02 0.05 0.1 --kmax 100
+    python scripts/graded_plate.py --out results/buckle --linear-buckling -1 -0.5 -0.3 --sweep 0.25 0.75 2 10 --kmax 40
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from pathlib import Path
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,7 +55,7 @@ from geometries import plate_section
 from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path, ramp
 from ngsgel.continuation import PathResult, StabilityOptions
-from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability
+from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability, stress_rate
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import penetration_depth, power_law_fit
 from ngsgel.supports import vertex_dof
@@ -554,6 +558,59 @@ def onset_curves(out: str, ps, ts, **options) -> list[dict]:
     return rows
 
 
+def linear_buckling_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
+                         maxh: float = 0.02, layers: int = 2, order: int = 3, bases=(-1.0, -0.5, -0.3),
+                         kmax: int = 40, quick: bool = False) -> dict:
+    """The eigenvalue buckling step of commercial codes (Abaqus ``*BUCKLE``), whose modes are the
+    usual seeds of "an infinitesimal initial geometry imperfection": at the flat disk equilibrated
+    at each ``mu`` in ``bases``, ``(K_k + lambda G_k) phi = 0`` for k = 2 .. kmax, with ``G_k`` the
+    initial-stress matrix of the stress per unit increment of the load (``ngsgel.harmonic``:
+    ``stress_rate``, ``linear_buckling``; k = 0, 1 carry rigid motions and are left out). The
+    multipliers are reported per unit ``mu`` (the load's rate at the base): a commercial code would
+    list the modes in that order, lowest first. ``linear_buckling.csv`` (one row per base and k) and
+    a summary with the first k per base."""
+    if quick:
+        maxh, order, kmax = max(maxh, 0.05), 2, min(kmax, 8)
+    if not (isinstance(kmax, int) and kmax >= 2):
+        raise ValueError(f"kmax must be an integer >= 2, got {kmax!r}")
+    bases = [float(b) for b in bases]
+    if not bases or any(not b < 0 for b in bases):
+        raise ValueError(f"bases must be chemical potentials < 0 (flat disks below mu = 0), got {bases!r}")
+    run_dir = RunDirectory(out, params=dict(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order,
+                                            bases=bases, kmax=kmax, chi=CHI, quick=quick, mode="linear buckling"))
+    start = time.perf_counter()
+    soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
+    progress = Progress(f"linear buckling p = {p:g}, t = {t:g}")
+    summary: dict = {"p": p, "t": t, "bases": []}
+    with History(run_dir.file("linear_buckling.csv")) as table:
+        for base in bases:
+            prob, stretch = build(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=base)
+            s0 = stretch.Get()
+            h = 1e-6 * s0
+            mu_per_stretch = (soft.mu_free(s0 + h) - soft.mu_free(s0 - h)) / (2 * h)
+            hs = HarmonicStability(prob)
+            rate = stress_rate(prob, stretch)
+            multipliers = {}
+            for k in range(2, kmax + 1):
+                lam = float(hs.linear_buckling(k, rate)[0]) * mu_per_stretch
+                multipliers[k] = lam
+                table.append({"mu_base": base, "k": k, "multiplier_mu": lam, "mu_linear": base + lam})
+            # no positive multiplier (inf): the increment compresses nothing that can buckle
+            order_k = [k for k in sorted(multipliers, key=multipliers.get) if math.isfinite(multipliers[k])]
+            first = order_k[0] if order_k else None
+            summary["bases"].append({"mu_base": base, "k_first": first,
+                                     "multiplier_mu": multipliers[first] if first else math.inf,
+                                     "mu_linear": base + multipliers[first] if first else math.inf,
+                                     "next_k": order_k[1:4], "next_multipliers": [multipliers[k] for k in order_k[1:4]],
+                                     "first_at_kmax": first == kmax})
+            progress(f"base mu {base:g}: " + (f"first k {first} at mu {base + multipliers[first]:+.4f}, then "
+                                                + ", ".join(f"{k} ({base + multipliers[k]:+.4f})" for k in order_k[1:4])
+                                                if first else "no positive multiplier for any k"))
+    summary["wall_s"] = time.perf_counter() - start
+    run_dir.write_json("summary.json", summary)
+    return summary
+
+
 def plot_onset_curves(curves: dict, path) -> None:
     import matplotlib
 
@@ -604,10 +661,22 @@ def main(argv=None) -> dict:
     parser.add_argument("--t-sweep", type=float, nargs="+", help="with --onset-curve: these thicknesses instead of --t")
     parser.add_argument("--end-only", action="store_true",
                         help="with --onset-curve: only the lowest eigenvalue of every k at mu = 0 (no onsets)")
+    parser.add_argument("--linear-buckling", type=float, nargs="+", metavar="MU",
+                        help="instead: the eigenvalue buckling step (Abaqus *BUCKLE) of the flat disk at each of "
+                             "these mu, k = 2 .. kmax, for every p (--p or --sweep)")
     args = parser.parse_args(argv)
     options = dict(n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, layers=args.layers, order=args.order,
                    mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection,
                    quick=quick_run(args))
+    if args.linear_buckling:
+        for key in ("mu0", "imperfection"):
+            options.pop(key)
+        results = [linear_buckling_case(str(Path(args.out) / f"p{p:g}"), p=p, bases=args.linear_buckling, **options)
+                   for p in (args.sweep or [args.p])]
+        for r in results:
+            print(f"p = {r['p']:g}: " + "; ".join(f"base {b['mu_base']:g}: k {b['k_first']} (then {b['next_k']})"
+                                                  for b in r["bases"]))
+        return {"linear_buckling": results}
     if args.onset_curve:
         options.pop("imperfection")
         ts = args.t_sweep or [options.pop("t")]

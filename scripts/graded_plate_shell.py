@@ -49,6 +49,13 @@ RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
 QUICK_MU_START = -0.3  # below the k = 2 onsets of every p at h = 0.2 (the lowest: -0.291, p = 2)
 RIM_SAMPLES = 128
 RIM_MODES = 12
+# A natural step past a fold has no equilibrium to converge to and Newton wanders at a constant
+# residual; converging steps on the soft buckled branches can sit on a plateau for up to 9
+# iterations (measured, p = 10) before they converge: give up after 10 without halving
+STALL_WINDOW = 10
+# The residual target is strict (the soft branches need it): even small converging natural steps
+# take 5-7 iterations there, so the driver's default (grow after <= 4) never lets them grow again
+EASY_ITERATIONS = 7
 
 
 class RimWaves:
@@ -165,8 +172,9 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                                    step=step / 5 if natural else step, max_step=step,
                                    min_step=step / 160 if natural else None, target=0.0, stability=stability,
                                    qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
-                                   vtk=vtk, progress=progress,
-                                   newton_options=None if maxit is None else {"maxit": maxit})
+                                   vtk=vtk, progress=progress, easy_iterations=EASY_ITERATIONS if natural else 4,
+                                   newton_options={**({} if maxit is None else {"maxit": maxit}),
+                                                   **({"stall_window": STALL_WINDOW} if natural else {})})
             except ContinuationError as exc:  # the path so far is kept: reported, or (snapping) a stall
                 path = exc.result
                 if not natural:

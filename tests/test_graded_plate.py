@@ -199,3 +199,38 @@ def test_continuous_critical_wave_number_is_the_vertex_of_the_onset_parabola():
     assert continuous_critical_wave_number(onsets(9.7, range(2, 20))) == pytest.approx(9.7, rel=1e-12)
     assert continuous_critical_wave_number(onsets(10.3, range(2, 20), missing=(11,))) is None  # a neighbour never unstable
     assert continuous_critical_wave_number(onsets(19.2, range(2, 20))) is None  # the minimum at the end of the scan
+
+
+def test_linear_buckling_from_a_base_near_the_onset_predicts_the_onset(tmp_path):
+    # The eigenvalue buckling step (linearised pre-buckling, stress per unit load at the base)
+    # is exact only at the onset itself; from a base at a distance d (in the load) below it, the
+    # predicted onset is off by O(d^2) (coarse softer-edge disk, t/R = 0.05, onset ~ mu -0.017;
+    # measured error / d^2 = 4.2, 2.9, 2.9 from mu = -0.05, -0.025, -0.018)
+    from ngsgel import FloryRehnerGel
+    from ngsgel.harmonic import HarmonicStability, first_harmonic_instability, stress_rate
+
+    target = FloryRehnerGel(Nv=1e-3, chi=graded_plate.CHI).lam_free(0.0)
+    prob, stretch = graded_plate.build(n0=1e-2, nR=1e-3, p=10.0, t=0.05, maxh=0.1, order=2, mu0=-0.1)
+    step = (target - stretch.Get()) / 8
+    exact = first_harmonic_instability(prob, stretch, target, ks=[2, 3, 4], step=step, max_step=step, tolerance=1e-6)
+    assert exact.found
+    ratios = []
+    for base in (-0.05, -0.025, -0.018):
+        prob, stretch = graded_plate.build(n0=1e-2, nR=1e-3, p=10.0, t=0.05, maxh=0.1, order=2, mu0=base)
+        hs = HarmonicStability(prob)
+        rate = stress_rate(prob, stretch)
+        multipliers = {k: hs.linear_buckling(k, rate)[0] for k in (2, 3, 4)}
+        k_first = min(multipliers, key=multipliers.get)
+        assert k_first == exact.k
+        distance = exact.parameter - stretch.Get()
+        ratios.append(abs(stretch.Get() + multipliers[k_first] - exact.parameter) / distance**2)
+    assert ratios[1] == pytest.approx(ratios[2], rel=0.2)  # second order as the base nears the onset
+    assert ratios[0] > ratios[1]
+
+    summary = graded_plate.main(["--quick", "--out", str(tmp_path), "--linear-buckling", "-0.5", "-0.25"])
+    bases = summary["linear_buckling"][0]["bases"]
+    assert [b["mu_base"] for b in bases] == [-0.5, -0.25]
+    assert all(b["k_first"] == 2 and b["multiplier_mu"] > 0 for b in bases)
+    assert (tmp_path / "p10" / "linear_buckling.csv").exists()
+    with pytest.raises(ValueError, match="bases"):
+        graded_plate.linear_buckling_case(str(tmp_path / "bad"), bases=[0.1])
