@@ -109,7 +109,7 @@ class GelShell(BuiltOnDemand):
     (>= 2); ``thickness_points``: Gauss points through the thickness (>= 2); ``penalty``:
     dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``); ``realcompile``:
     compile the energy's derivatives to C++ (needs a compiler; the tangent is no faster than the
-    interpreted one, the residual 2x: pays off on long paths with many line searches).
+    interpreted one, the residual 2x faster: pays off on long paths with many line searches).
     """
 
     def __init__(self, mesh: ngs.Mesh, *, material: FloryRehnerGel, lam0: float, thickness: float,
@@ -324,7 +324,7 @@ class GelShell(BuiltOnDemand):
         form = ngs.BilinearForm(self._space, symmetric=True)
         variation = ngs.Variation(energy).Compile(realcompile=self.realcompile, wait=True)
         # Interpreted, the tangent's blocks are differentiated symbolically once (NGSolve's
-        # "uses_diff" integrators): as fast as the C++-compiled default (forward-mode automatic
+        # "uses_diff" integrators): a tangent as fast as the C++-compiled default (forward-mode automatic
         # differentiation at every point) without its ~30 s compilation. Compiling the
         # differentiated blocks instead takes over 10 minutes, so a compiled form keeps the default.
         uses_diff = ngs.ngsglobals.symbolic_integrator_uses_diff

@@ -121,7 +121,8 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     0.1 t, the next follows that branch to ``mu = 0`` locating (not switching at) every later
     change of the negative count, with its critical mode's wave number (column ``leg``).
     ``through_snaps`` (with ``switch_all`` False): the legs after the first follow ``mu`` in
-    natural steps (``step / 5`` growing to ``step``) and also end where the followed branch loses
+    natural steps (``step / 5`` growing to ``step``; a solve gives up after ``STALL_WINDOW`` iterations
+    that do not halve its residual, a step grows after <= ``EASY_ITERATIONS``) and also end where the followed branch loses
     stability or the steps stall (below ``step / 160``: a fold); the disk then snaps at ``mu`` =
     critical (or last) + ``snap_overshoot`` (at most 0) (``ngsgel.relaxation.settle_after``: pushed 0.1 t
     along the critical mode, relaxed by the overdamped flow to a stable state, reported in
