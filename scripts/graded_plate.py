@@ -558,55 +558,65 @@ def onset_curves(out: str, ps, ts, **options) -> list[dict]:
     return rows
 
 
+def linear_buckling_bases(build_at: Callable[[float], tuple], soft: FloryRehnerGel, bases, ks, *, table,
+                          progress) -> list[dict]:
+    """The eigenvalue buckling step of commercial codes (Abaqus ``*BUCKLE``), whose modes are the
+    usual seeds of "an infinitesimal initial geometry imperfection": at the axisymmetric state
+    ``build_at(mu)`` (a problem and its soft-stretch load) for each ``mu`` in ``bases``,
+    ``(K_k + lambda G_k) phi = 0`` for every k in ``ks`` with ``G_k`` the initial-stress matrix of
+    the stress per unit load increment (``ngsgel.harmonic``: ``stress_rate``, ``linear_buckling``).
+    Multipliers per unit ``mu`` (the load's rate at the base): a commercial code lists the modes
+    in that order, lowest first. One ``table`` row per base and k; per base the first k (None if
+    the increment compresses nothing that can buckle: no positive multiplier) and the next three."""
+    rows = []
+    for base in bases:
+        prob, stretch = build_at(base)
+        s0 = stretch.Get()
+        h = 1e-6 * s0
+        mu_per_stretch = (soft.mu_free(s0 + h) - soft.mu_free(s0 - h)) / (2 * h)
+        hs = HarmonicStability(prob)
+        rate = stress_rate(prob, stretch)
+        multipliers = {}
+        for k in ks:
+            multipliers[k] = float(hs.linear_buckling(k, rate)[0]) * mu_per_stretch
+            table.append({"mu_base": base, "k": k, "multiplier_mu": multipliers[k], "mu_linear": base + multipliers[k]})
+        listed = [k for k in sorted(multipliers, key=multipliers.get) if math.isfinite(multipliers[k])]
+        first = listed[0] if listed else None
+        rows.append({"mu_base": base, "k_first": first, "multiplier_mu": multipliers[first] if first else math.inf,
+                     "mu_linear": base + multipliers[first] if first else math.inf, "next_k": listed[1:4],
+                     "next_multipliers": [multipliers[k] for k in listed[1:4]], "first_at_kmax": first == max(ks)})
+        progress(f"base mu {base:g}: " + (f"first k {first} at mu {base + multipliers[first]:+.4f}, then "
+                                            + ", ".join(f"{k} ({base + multipliers[k]:+.4f})" for k in listed[1:4])
+                                            if first else "no positive multiplier for any k"))
+    return rows
+
+
+def check_bases(bases) -> list[float]:
+    bases = [float(b) for b in bases]
+    if not bases or any(not b < 0 for b in bases):
+        raise ValueError(f"bases must be chemical potentials < 0 (states below mu = 0), got {bases!r}")
+    return bases
+
+
 def linear_buckling_case(out: str, *, n0: float = 1e-2, nR: float = 1e-3, p: float = 10.0, t: float = 0.01,
                          maxh: float = 0.02, layers: int = 2, order: int = 3, bases=(-1.0, -0.5, -0.3),
                          kmax: int = 40, quick: bool = False) -> dict:
-    """The eigenvalue buckling step of commercial codes (Abaqus ``*BUCKLE``), whose modes are the
-    usual seeds of "an infinitesimal initial geometry imperfection": at the flat disk equilibrated
-    at each ``mu`` in ``bases``, ``(K_k + lambda G_k) phi = 0`` for k = 2 .. kmax, with ``G_k`` the
-    initial-stress matrix of the stress per unit increment of the load (``ngsgel.harmonic``:
-    ``stress_rate``, ``linear_buckling``; k = 0, 1 carry rigid motions and are left out). The
-    multipliers are reported per unit ``mu`` (the load's rate at the base): a commercial code would
-    list the modes in that order, lowest first. ``linear_buckling.csv`` (one row per base and k) and
-    a summary with the first k per base."""
+    """``linear_buckling_bases`` for the flat disk, k = 2 .. kmax (k = 0, 1 carry rigid motions):
+    ``linear_buckling.csv`` and a summary with the first k per base."""
     if quick:
         maxh, order, kmax = max(maxh, 0.05), 2, min(kmax, 8)
     if not (isinstance(kmax, int) and kmax >= 2):
         raise ValueError(f"kmax must be an integer >= 2, got {kmax!r}")
-    bases = [float(b) for b in bases]
-    if not bases or any(not b < 0 for b in bases):
-        raise ValueError(f"bases must be chemical potentials < 0 (flat disks below mu = 0), got {bases!r}")
+    bases = check_bases(bases)
     run_dir = RunDirectory(out, params=dict(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order,
                                             bases=bases, kmax=kmax, chi=CHI, quick=quick, mode="linear buckling"))
     start = time.perf_counter()
-    soft = FloryRehnerGel(Nv=min(n0, nR), chi=CHI)
-    progress = Progress(f"linear buckling p = {p:g}, t = {t:g}")
-    summary: dict = {"p": p, "t": t, "bases": []}
     with History(run_dir.file("linear_buckling.csv")) as table:
-        for base in bases:
-            prob, stretch = build(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=base)
-            s0 = stretch.Get()
-            h = 1e-6 * s0
-            mu_per_stretch = (soft.mu_free(s0 + h) - soft.mu_free(s0 - h)) / (2 * h)
-            hs = HarmonicStability(prob)
-            rate = stress_rate(prob, stretch)
-            multipliers = {}
-            for k in range(2, kmax + 1):
-                lam = float(hs.linear_buckling(k, rate)[0]) * mu_per_stretch
-                multipliers[k] = lam
-                table.append({"mu_base": base, "k": k, "multiplier_mu": lam, "mu_linear": base + lam})
-            # no positive multiplier (inf): the increment compresses nothing that can buckle
-            order_k = [k for k in sorted(multipliers, key=multipliers.get) if math.isfinite(multipliers[k])]
-            first = order_k[0] if order_k else None
-            summary["bases"].append({"mu_base": base, "k_first": first,
-                                     "multiplier_mu": multipliers[first] if first else math.inf,
-                                     "mu_linear": base + multipliers[first] if first else math.inf,
-                                     "next_k": order_k[1:4], "next_multipliers": [multipliers[k] for k in order_k[1:4]],
-                                     "first_at_kmax": first == kmax})
-            progress(f"base mu {base:g}: " + (f"first k {first} at mu {base + multipliers[first]:+.4f}, then "
-                                                + ", ".join(f"{k} ({base + multipliers[k]:+.4f})" for k in order_k[1:4])
-                                                if first else "no positive multiplier for any k"))
-    summary["wall_s"] = time.perf_counter() - start
+        rows = linear_buckling_bases(
+            lambda base: build(n0=n0, nR=nR, p=p, t=t, maxh=maxh, layers=layers, order=order, mu0=base),
+            FloryRehnerGel(Nv=min(n0, nR), chi=CHI), bases, range(2, kmax + 1), table=table,
+            progress=Progress(f"linear buckling p = {p:g}, t = {t:g}"))
+    summary = {"p": p, "t": t, "bases": rows, "wall_s": time.perf_counter() - start}
     run_dir.write_json("summary.json", summary)
     return summary
 

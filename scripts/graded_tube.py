@@ -14,9 +14,11 @@ numbers ``k = 1 .. kmax`` (``ngsgel.harmonic``, exact for the 3D tube); the firs
 eigenvalue is bisected to ``mu_c``, ``k_c``. Reported: the flare of the head along the path,
 the deformed mid-wall profile at the end (or at onset) with its curvature (concave, straight,
 convex), ``mu_c``, ``k_c`` and the penetration depth of the critical mode from the head.
-``--sweep P [P ...]`` runs several exponents. Not done: the post-buckled petals (a 3D run).
+``--sweep P [P ...]`` runs several exponents; ``--linear-buckling MU [MU ...]`` the eigenvalue
+buckling step (Abaqus ``*BUCKLE``) of the trumpet at those ``mu`` (``graded_plate.py``). Not done: the post-buckled petals (a 3D run).
 
     python scripts/graded_tube.py --out results/graded_tube --sweep 1 3 5 7.5 10 [--quick]
+    python scripts/graded_tube.py --out results/tube_buckle --linear-buckling -1 -0.5 -0.1 --sweep 5 7.5 10
 """
 
 from __future__ import annotations
@@ -28,9 +30,10 @@ import numpy as np
 
 from geometries import tube_section
 from geometries.fields import axial_grading
-from graded_plate import (CHI, add_grading_options, continuous_critical_wave_number, local_minima, mismatch_strain,
-                          onset_curve, scan_path, soft_stretch_load, sweep, write_onset_curve)
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel
+from graded_plate import (CHI, add_grading_options, check_bases, continuous_critical_wave_number, linear_buckling_bases,
+                          local_minima, mismatch_strain, onset_curve, scan_path, soft_stretch_load, sweep,
+                          write_onset_curve)
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, ramp
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 
 RI = 1.0
@@ -161,6 +164,39 @@ def onset_curve_case(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float =
     return summary
 
 
+def linear_buckling_case(out: str, *, n0: float = 1e-2, nL: float = 1e-3, p: float = 10.0, t: float = 0.02,
+                         L: float = 2.0, maxh: float = 0.05, order: int = 3, bases=(-1.0, -0.5, -0.1),
+                         kmax: int = 20, quick: bool = False) -> dict:
+    """The eigenvalue buckling step (``graded_plate.linear_buckling_bases``) of the trumpet at each
+    base ``mu``, k = 2 .. kmax (k = 0, 1 carry rigid motions on the smooth base)."""
+    if quick:
+        maxh, order, kmax = max(maxh, 0.1), 2, min(kmax, 12)
+    bases = check_bases(bases)
+    run_dir = RunDirectory(out, params=dict(n0=n0, nL=nL, p=p, t=t, L=L, Ri=RI, maxh=maxh, order=order, bases=bases,
+                                            kmax=kmax, chi=CHI, quick=quick, mode="linear buckling"))
+    start = time.perf_counter()
+    soft = FloryRehnerGel(Nv=min(n0, nL), chi=CHI)
+
+    def build_at(base: float):
+        # one Newton solve from the reference does not reach a state close to mu = 0 (graded
+        # mismatch): equilibrate at -0.1 at most, then ramp
+        prob, stretch = build(n0=n0, nL=nL, p=p, t=t, L=L, maxh=maxh, order=order, mu0=min(base, -0.1))
+        if base > -0.1:
+            ramp(prob, stretch, soft.lam_free(base), step=(soft.lam_free(base) - stretch.Get()) / 10)
+        return prob, stretch
+
+    with History(run_dir.file("linear_buckling.csv")) as table:
+        rows = linear_buckling_bases(build_at, soft, bases, range(2, kmax + 1), table=table,
+                                     progress=Progress(f"tube linear buckling p = {p:g}"))
+    summary = {"p": p, "t": t, "L": L, "bases": rows, "wall_s": time.perf_counter() - start}
+    run_dir.write_json("summary.json", summary)
+    return summary
+
+
+def linear_buckling_row(summary: dict) -> dict:
+    return {f"k_first_base{b['mu_base']:g}": b["k_first"] for b in summary["bases"]}
+
+
 def onset_row(summary: dict) -> dict:
     keys = ("found", "k_critical", "k_continuous", "mu_critical", "depth_half_critical", "k_at_scan_limit", "wall_s")
     return {k: summary.get(k, math.nan) for k in keys}
@@ -201,9 +237,15 @@ def main(argv=None) -> dict:
     parser.add_argument("--nL", type=float, default=1e-3, help="Nv at the head")
     parser.add_argument("--onset-curve", action="store_true",
                         help="onset mu_c(k) of every k = 1 .. kmax on the trumpet path and the continuous critical k")
+    parser.add_argument("--linear-buckling", type=float, nargs="+", metavar="MU",
+                        help="instead: the eigenvalue buckling step (Abaqus *BUCKLE) of the trumpet at each of these mu")
     args = parser.parse_args(argv)
     options = dict(n0=args.n0, nL=args.nL, t=args.t, L=args.L, maxh=args.maxh, order=args.order, mu0=args.mu0, kmax=args.kmax,
                    quick=quick_run(args))
+    if args.linear_buckling:
+        options.pop("mu0")
+        return {"sweep": sweep(args.out, args.sweep or [args.p], run_one=linear_buckling_case, row=linear_buckling_row,
+                               bases=args.linear_buckling, **options)}
     if args.onset_curve:
         return {"sweep": sweep(args.out, args.sweep or [args.p], run_one=onset_curve_case, row=onset_row, **options)}
     if args.sweep:

@@ -234,3 +234,21 @@ def test_linear_buckling_from_a_base_near_the_onset_predicts_the_onset(tmp_path)
     assert (tmp_path / "p10" / "linear_buckling.csv").exists()
     with pytest.raises(ValueError, match="bases"):
         graded_plate.linear_buckling_case(str(tmp_path / "bad"), bases=[0.1])
+
+
+def test_tube_linear_buckling_lists_the_smallest_multiplier_first(tmp_path):
+    import csv
+
+    import graded_tube
+
+    with pytest.raises(ValueError, match="bases"):
+        graded_tube.linear_buckling_case(str(tmp_path / "bad"), bases=[-0.5, 0.0])
+    rows = graded_tube.main(["--quick", "--out", str(tmp_path), "--linear-buckling", "-0.5", "-0.05", "--p", "10"])
+    summary = json.loads((tmp_path / "p10" / "summary.json").read_text())
+    with open(tmp_path / "p10" / "linear_buckling.csv") as f:
+        table = list(csv.DictReader(f))
+    for base in summary["bases"]:  # -0.05 is reached by a ramp from -0.1
+        multipliers = {int(r["k"]): float(r["multiplier_mu"]) for r in table if float(r["mu_base"]) == base["mu_base"]}
+        assert base["k_first"] == min(multipliers, key=multipliers.get)
+        assert base["multiplier_mu"] == pytest.approx(multipliers[base["k_first"]])
+    assert rows["sweep"][0]["k_first_base-0.5"] == summary["bases"][0]["k_first"]
