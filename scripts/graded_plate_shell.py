@@ -1,19 +1,21 @@
 """Post-buckled path of the softer-edge graded disk (thesis ch. 5, MODEL.md 5 C) as a shell.
 
-The full disk ``GelShell`` of ``bench_shell.graded_plate_shell`` (graded ``Nv`` as a field, six
-statically determinate pins) is swollen from ``mu0 = -1`` towards ``mu = 0`` by arclength
-continuation with the exact negative count of the shell's tangent at every state. At the first
-bifurcation (the flat disk losing stability to the k = 2 saddle, docs/graded.md) the driver
-switches onto the branch along the critical mode (amplitude ``0.1 t``) and follows it; later
-changes of the negative count (secondary bifurcations) are located and switched the same way.
+The disk ``GelShell`` of ``bench_shell.graded_plate_shell`` (graded ``Nv`` as a field; the half
+disk with mirror symmetry about y = 0 and three pins, or with ``--full-disk`` the full disk with six
+statically determinate pins) is swollen towards ``mu = 0`` with the exact negative count of the
+shell's tangent at every state. At the first bifurcation (the flat disk losing stability to the
+k = 2 saddle, docs/graded.md) the driver switches onto the branch along the critical mode
+(amplitude ``0.1 t``); with ``--switch-all`` it follows every branch by arclength and switches the
+same way at every later change of the negative count.
 Along the path the deflection ``w`` (z displacement; rigid tilt is removed by the pins) is
 sampled on the circle ``r = 0.97 R`` and its Fourier content recorded: the dominant wave number,
 its amplitude, the runner-up, the purity and the amplitudes of ``k = 1 .. 12``. Each event's
 critical mode gets its wave number (``bench_shell.plate_mode_wave``).
 
-``--watch-after-first-switch --through-snaps`` (with ``--half``: the k = 2 onset of the full disk
-is a double eigenvalue, along which a one-mode switch does not converge) follows the buckled
-branch until it loses stability, lets the disk snap there (``ngsgel.relaxation.settle_past``: the
+By default (the half disk: the k = 2 onset of the full disk is a double eigenvalue, along which a
+one-mode switch does not converge; ``--full-disk``, ``--switch-all``, ``--no-snaps`` for the other
+protocols) the run ramps the flat disk to ``mu = -0.3``, switches once onto the saddle, follows the
+buckled branch until it loses stability, lets the disk snap there (``ngsgel.relaxation.settle_past``: the
 overdamped flow at ``mu`` just beyond the critical value, from the critical state pushed along
 its mode, to a stable equilibrium) and follows the branch it lands on, as often as needed to
 reach ``mu = 0``: the pattern the plate ends with.
@@ -24,7 +26,7 @@ Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summ
 end).
 
     python scripts/graded_plate_shell.py --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
-    python scripts/graded_plate_shell.py --out results/p10_snaps --half --watch-after-first-switch --through-snaps
+    python scripts/graded_plate_shell.py --out results/full_disk --full-disk --switch-all --mu-start -1
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run,
 from ngsgel.patterns import penetration_depth, wave_number
 
 RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
-QUICK_MU_START = -0.3  # below the k = 2 onsets of every p at h = 0.2 (the lowest: -0.291, p = 2)
+MU_START = -0.3  # below the k = 2 onsets of every p at h = 0.2 (the lowest: -0.291, p = 2)
 RIM_SAMPLES = 128
 RIM_MODES = 12
 # A natural step past a fold has no equilibrium to converge to and Newton wanders at a constant
@@ -108,11 +110,14 @@ def pattern_depth(shell, mesh: ngs.Mesh, k: int, *, half: bool, radii: np.ndarra
 
 
 def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
-        max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = None,
-        maxit: int | None = None, half: bool = False, switch_all: bool = True, through_snaps: bool = False,
+        max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = MU_START,
+        maxit: int | None = None, half: bool = True, switch_all: bool = False, through_snaps: bool = True,
         snap_overshoot: float = 1e-3, quick: bool = False) -> dict:
-    """``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
-    below the onset; the driver's first state then shows no negative eigenvalue, which is checked).
+    """The defaults are the protocol that reaches ``mu = 0`` (docs/graded.md): the half disk, one
+    switch onto the saddle, then its branch and the ones it snaps to.
+    ``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
+    below the onset; the driver's first state then shows no negative eigenvalue, which is checked;
+    None: start at ``mu0``).
     ``maxit``: Newton iterations per solve (the driver's default when None). A Newton failure of
     the driver (e.g. in the branch switch) writes its residual history to ``newton_failure.json``
     before it propagates. ``half``: the half disk with mirror symmetry about y = 0
@@ -134,7 +139,6 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     if quick:  # the coarsest mesh whose onset is right (at h = 0.3 it comes at a mu 42 % lower)
         maxh, max_steps, realcompile, half = 0.2, min(max_steps, 8), False, True
         switch_all, through_snaps = False, False
-        mu_start = QUICK_MU_START if mu_start is None else mu_start
     params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
                   switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot, quick=quick,
@@ -232,7 +236,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
 
 
 def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, t: float = 0.01, maxh: float = 0.2,
-                   order: int = 3, mu_start: float = QUICK_MU_START, step: float = 0.01,
+                   order: int = 3, mu_start: float = MU_START, step: float = 0.01,
                    realcompile: bool = True) -> dict:
     """Whether the wave number ``k`` is a stable pattern of the disk at ``mu = 0`` when a run is
     seeded with it (the thesis's runs seeded "an infinitesimal initial geometry imperfection" of
@@ -329,7 +333,7 @@ def plot_shape(shell, mesh: ngs.Mesh, path, *, title: str, half: bool = False) -
 
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_plate_shell",
-                          quick=f"half disk, h = 0.2, from mu = {QUICK_MU_START} through the first switch onto the "
+                          quick=f"half disk, h = 0.2, from mu = {MU_START} through the first switch onto the "
                                 "saddle, 8 steps, no C++ compile (about 2 min)")
     parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
     parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
@@ -338,14 +342,17 @@ def main(argv=None) -> dict:
     parser.add_argument("--step", type=float, default=0.05, help="arclength step (and its maximum)")
     parser.add_argument("--max-steps", type=int, default=200)
     parser.add_argument("--no-realcompile", action="store_true", help="do not compile the forms to C++")
-    parser.add_argument("--mu-start", type=float, help="ramp the flat disk to this mu first (below the onset)")
+    parser.add_argument("--mu-start", type=float, default=MU_START,
+                        help=f"ramp the flat disk to this mu first, below the onset (default {MU_START})")
     parser.add_argument("--maxit", type=int, help="Newton iterations per solve (default: the driver's)")
-    parser.add_argument("--half", action="store_true", help="half disk, mirror symmetry about y = 0")
-    parser.add_argument("--watch-after-first-switch", action="store_true",
-                        help="switch onto the first buckled branch only, then follow it locating later bifurcations")
-    parser.add_argument("--through-snaps", action="store_true",
-                        help="with --watch-after-first-switch: where the followed branch loses stability, snap "
-                             "(overdamped relaxation to a stable state) and follow the branch it lands on")
+    parser.add_argument("--full-disk", dest="half", action="store_false",
+                        help="the full disk instead of the half with mirror symmetry about y = 0 (the one-mode switch "
+                             "at the double k = 2 eigenvalue of the full disk does not converge)")
+    parser.add_argument("--switch-all", action="store_true",
+                        help="switch onto the new branch at every bifurcation (arclength) instead of snapping")
+    parser.add_argument("--no-snaps", action="store_true",
+                        help="after the first switch follow the branch by arclength, locating (not snapping at) later "
+                             "bifurcations")
     parser.add_argument("--snap-overshoot", type=float, default=1e-3, help="mu beyond the critical value to snap at")
     parser.add_argument("--seed-wave", type=int, help="instead: seed this wave number (half disk, transverse "
                         "dead load), swell to mu = 0, remove the seed and relax (seeded_pattern)")
@@ -354,14 +361,14 @@ def main(argv=None) -> dict:
     if args.seed_wave is not None:
         summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, t=args.t,
                                  maxh=args.maxh, order=args.order, realcompile=not args.no_realcompile,
-                                 **({} if args.mu_start is None else {"mu_start": args.mu_start}))
+                                 mu_start=args.mu_start)
         print(json.dumps({k: v for k, v in summary.items() if k not in ("rim_with_seed", "penetration_depth")},
                          default=str, indent=1))
         return summary
     summary = run(args.out, p=args.p, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
                   max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
                   maxit=args.maxit, half=args.half,
-                  switch_all=not args.watch_after_first_switch, through_snaps=args.through_snaps,
+                  switch_all=args.switch_all, through_snaps=not (args.switch_all or args.no_snaps),
                   snap_overshoot=args.snap_overshoot,
                   quick=quick_run(args))
     print(json.dumps({k: v for k, v in summary.items() if k != "events"}, default=str, indent=1))
