@@ -31,11 +31,10 @@ from typing import Literal
 
 import numpy as np
 import ngsolve as ngs
-from scipy.sparse.linalg import spsolve
 
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
 from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
-                        spectrum)
+                        spectrum, state_rate)
 from .stepping import RampError, ramp
 
 __all__ = ["StabilityOptions", "Stabilization", "PathPoint", "Event", "Checkpoint", "PathResult",
@@ -746,8 +745,7 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
 
     def path_tangent() -> np.ndarray:
         """``dx_free/dlambda`` at the current state."""
-        K = free_matrix(problem.tangent(problem.state), free)
-        return -spsolve(K, load_rate(problem, parameter).residual)
+        return state_rate(problem, parameter)[free]
 
     if scale is None:
         # |dx/dlambda| at the start: load and displacement share the arc length equally there

@@ -34,12 +34,11 @@ from dataclasses import dataclass
 import numpy as np
 import ngsolve as ngs
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
 import scipy.linalg
 
 from .kinematics import Axisymmetric
 from .newton import NewtonError
-from .stability import Spectrum, free_matrix, load_rate, spectrum
+from .stability import Spectrum, free_matrix, load_rate, spectrum, state_rate
 from .stepping import ramp
 
 _DENSE_LIMIT = 8000  # unknowns of one wave number for the dense linear buckling solve
@@ -257,7 +256,9 @@ class HarmonicStability:
         ``(K_k + lambda G_k) phi = 0`` with ``K_k`` the tangent of the current (stable) state and
         ``G_k`` the initial-stress matrix of ``stress`` (the stress per unit load increment:
         ``stress_rate``): the eigenvalue buckling step of commercial codes (Abaqus ``*BUCKLE``),
-        whose modes are the usual seeds of imperfections. The ``count`` smallest positive ones,
+        whose modes are the usual seeds of imperfections. Unlike ``ngsgel.stability.linear_buckling``
+        (the whole tangent's change per unit load, material softening included) only the initial
+        stress enters, as in those codes. The ``count`` smallest positive ones,
         ascending (``inf`` where the increment compresses nothing this mode can use); ``k = 0, 1``
         need a tangent without rigid motions."""
         K, _, _ = self.matrices(k)
@@ -385,12 +386,9 @@ def stress_rate(problem, parameter: ngs.Parameter, *, relative_step: float = 1e-
     if not 0 < relative_step < 1e-2:
         raise ValueError(f"relative_step must be in (0, 1e-2), got {relative_step!r}")
     start, state = parameter.Get(), problem.save_state()
-    free = problem.free_mask
     # near the dry state the gel's bulk stiffness (~1 / (J (J - 1))) turns a relative error of
     # 1e-5 in the state rate into a stress rate larger than a graded disk's mismatch stresses
-    rate = load_rate(problem, parameter, relative_step=relative_step)
-    dx = rate.prescribed.copy()
-    dx[free] = -spsolve(free_matrix(problem.tangent(problem.state), free), rate.residual)
+    dx = state_rate(problem, parameter, relative_step=relative_step)
     eps = relative_step * max(abs(start), 1.0)
     u = problem.displacement
     F = problem.deformation_gradient(u)

@@ -27,7 +27,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 __all__ = ["Spectrum", "LoadRate", "BucklingResult", "free_matrix", "mass_matrix", "negative_count",
-           "spectrum", "load_rate", "conjugate_force", "mode_function", "load_projection", "linear_buckling",
+           "spectrum", "load_rate", "state_rate", "conjugate_force", "mode_function", "load_projection", "linear_buckling",
            "random_field", "seed_imperfection", "GrowthSelection", "growth_exponents", "fastest_growing"]
 
 
@@ -165,6 +165,18 @@ def load_rate(problem, parameter: ngs.Parameter, *, x: ngs.BaseVector | None = N
     return LoadRate(residual=dR[free].copy(), prescribed=dg)
 
 
+def state_rate(problem, parameter: ngs.Parameter, *, K=None, relative_step: float = 1e-4) -> np.ndarray:
+    """``dx/dlambda`` along the equilibrium path at the current converged state (full length): the
+    prescribed rate on constrained dofs, ``-K^-1 dR/dlambda`` on the free ones (``K``: the free-dof
+    tangent if already at hand; ``relative_step``: of ``load_rate``)."""
+    free = problem.free_mask
+    rate = load_rate(problem, parameter, relative_step=relative_step)
+    K = free_matrix(problem.tangent(problem.state), free) if K is None else K
+    dx = rate.prescribed.copy()
+    dx[free] = -sla.spsolve(K, rate.residual)
+    return dx
+
+
 def conjugate_force(problem, parameter: ngs.Parameter, *, x: ngs.BaseVector | None = None) -> float:
     """Generalised force work-conjugate to a prescribed-displacement ``parameter`` (e.g. the
     indentation depth): ``dE/dlambda = r(x) . dg/dlambda``, ``r`` the full residual (at an
@@ -226,9 +238,7 @@ def linear_buckling(problem, parameter: ngs.Parameter, *, increment: float, coun
     K0 = free_matrix(problem.tangent(problem.state), free)
     if negative_count(K0) != 0:
         raise ValueError("linear buckling needs a stable prestressed state (the tangent has negative eigenvalues)")
-    rate = load_rate(problem, parameter)
-    du = rate.prescribed * increment
-    du[free] = -sla.spsolve(K0, rate.residual) * increment
+    du = state_rate(problem, parameter, K=K0) * increment
     eps = relative_step
     tangents = []
     try:

@@ -172,14 +172,17 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
             # past the first switch a snapping run steps mu itself: the arclength corrector failed to
             # locate the saddle's loss of stability at h = 0.15 (docs/graded.md)
             natural = through_snaps and leg > 0
+            newton_options = {} if maxit is None else {"maxit": maxit}
+            leg_options = {"newton_options": newton_options}
+            if natural:
+                leg_options = {"easy_iterations": EASY_ITERATIONS,
+                                   "newton_options": {**newton_options, "stall_window": STALL_WINDOW}}
             try:
                 path = follow_path(shell, shell.mu, method="natural" if natural else "arclength",
                                    step=step / 5 if natural else step, max_step=step,
                                    min_step=step / 160 if natural else None, target=0.0, stability=stability,
                                    qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
-                                   vtk=vtk, progress=progress, easy_iterations=EASY_ITERATIONS if natural else 4,
-                                   newton_options={**({} if maxit is None else {"maxit": maxit}),
-                                                   **({"stall_window": STALL_WINDOW} if natural else {})})
+                                   vtk=vtk, progress=progress, **leg_options)
             except ContinuationError as exc:  # the path so far is kept: reported, or (snapping) a stall
                 path = exc.result
                 if not natural:
