@@ -69,7 +69,9 @@ cheap in unknowns, not yet per unknown.
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from collections.abc import Sequence
 from numbers import Real
 
@@ -108,8 +110,8 @@ class GelShell(BuiltOnDemand):
     ``mu``: number (held in the ``Parameter`` ``self.mu``); ``order``: displacement order
     (>= 2); ``thickness_points``: Gauss points through the thickness (>= 2); ``penalty``:
     dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``); ``realcompile``:
-    compile the energy's derivatives to C++ (needs a compiler; the tangent is no faster than the
-    interpreted one, the residual 2x faster: pays off on long paths with many line searches).
+    compile the energy and its first derivative to C++ for the residual (needs a compiler, ~20 s;
+    the residual 2x faster: pays off on long paths; the tangent is interpreted either way).
     """
 
     def __init__(self, mesh: ngs.Mesh, *, material: FloryRehnerGel, lam0: float, thickness: float,
@@ -270,7 +272,7 @@ class GelShell(BuiltOnDemand):
         self.form
         dof = self._vertex_dofs(self._vertex(point))[_COMPONENTS.index(self._component(component))]
         r = self.state.CreateVector()
-        self.form.Apply(self.state, r)
+        self._residual_form.Apply(self.state, r)
         return float(r[dof])
 
     def _vertex_dofs(self, vertex: int) -> np.ndarray:
@@ -321,19 +323,25 @@ class GelShell(BuiltOnDemand):
             on_curve.Set(1.0, definedon=mesh.BBoundaries(boundary))
             mu_ref = ngs.Cross(ngs.specialcf.normal(3), ngs.specialcf.tangential(3))
             energy += on_curve * moment * (omega * mu_ref) * ngs.ds(element_boundary=True)
-        form = ngs.BilinearForm(self._space, symmetric=True)
-        variation = ngs.Variation(energy).Compile(realcompile=self.realcompile, wait=True)
-        # Interpreted, the tangent's blocks are differentiated symbolically once (NGSolve's
-        # "uses_diff" integrators): a tangent as fast as the C++-compiled default (forward-mode automatic
-        # differentiation at every point) without its ~30 s compilation. Compiling the
-        # differentiated blocks instead takes over 10 minutes, so a compiled form keeps the default.
+        # The tangent's blocks are differentiated symbolically once (NGSolve's "uses_diff"
+        # integrators), interpreted: as fast as C++-compiled forward-mode differentiation at every
+        # point, without compiling second derivatives (~10 of a compiled form's ~30 s; compiling the
+        # differentiated blocks themselves takes over 10 minutes). ``realcompile`` compiles the energy
+        # and its first derivative only, for the residual: 2x faster than interpreted.
         uses_diff = ngs.ngsglobals.symbolic_integrator_uses_diff
-        ngs.ngsglobals.symbolic_integrator_uses_diff = not self.realcompile
+        ngs.ngsglobals.symbolic_integrator_uses_diff = True
         try:
-            form += variation
+            form = ngs.BilinearForm(self._space, symmetric=True)
+            form += ngs.Variation(energy).Compile()  # a flat list of steps: shared subexpressions once
         finally:
             ngs.ngsglobals.symbolic_integrator_uses_diff = uses_diff
         self._form = form
+        self._residual_form = form
+        if self.realcompile:
+            compiled = [integral.coef.Compile(realcompile=True, maxderiv=1, wait=True) * integral.symbol
+                        for integral in energy]
+            self._residual_form = ngs.BilinearForm(self._space, symmetric=True)
+            self._residual_form += ngs.Variation(functools.reduce(operator.add, compiled))
         self._scratch = ngs.GridFunction(self._space)
         self._target = ngs.GridFunction(self._space)
         free = self._space.FreeDofs()  # the space's own mask: solvers built from it see the points
@@ -439,7 +447,7 @@ class GelShell(BuiltOnDemand):
             values[dofs] += (1.0 if scale is None else scale.Get()) * force
 
     def residual(self, x, out) -> None:
-        self.form.Apply(x, out)
+        self._residual_form.Apply(x, out)
         if self._point_dofs:
             f = out.CreateVector()
             self._point_load_vector(f)
@@ -451,7 +459,7 @@ class GelShell(BuiltOnDemand):
 
     def energy(self, x=None) -> float:
         x = self.state if x is None else x
-        value = self.form.Energy(x)
+        value = self._residual_form.Energy(x)
         if self._point_dofs:
             f = x.CreateVector()
             self._point_load_vector(f)

@@ -1,5 +1,6 @@
-"""GelShell compiled to C++ (``realcompile=True``): the same residual and tangent as the
-interpreted symbolic derivatives, on a coarse bent and swollen half cap."""
+"""GelShell compiled to C++ (``realcompile=True``: the energy and its first derivative, for the
+residual): the same residual and energy as the interpreted form, on a coarse bent and swollen
+half cap. (The tangent is interpreted either way.)"""
 
 from __future__ import annotations
 
@@ -12,14 +13,13 @@ import pytest
 from geometries import cap_midsurface
 from ngsgel import FloryRehnerGel
 from ngsgel.shell import GelShell
-from ngsgel.stability import free_matrix
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 
 
-@pytest.mark.slow  # the C++ compilation alone takes 30-100 s
+@pytest.mark.slow  # the C++ compilation alone takes 10-60 s
 @pytest.mark.skipif(shutil.which("c++") is None and shutil.which("g++") is None, reason="needs a C++ compiler")
-def test_compiled_shell_has_the_same_residual_and_tangent():
+def test_compiled_shell_has_the_same_residual_and_energy():
     bundle = cap_midsurface(H=0.3, maxh=0.5, apex_radius=0.1, curve_order=2, half=True)
     shells = []
     for realcompile in (False, True):
@@ -37,11 +37,10 @@ def test_compiled_shell_has_the_same_residual_and_tangent():
         shell.state.FV().NumPy()[:] = state
         r = shell.state.CreateVector()
         shell.residual(shell.state, r)
-        K = free_matrix(shell.tangent(shell.state), shell.free_mask)
-        results.append((r.FV().NumPy()[shell.free_mask].copy(), K))
-    (r0, K0), (r1, K1) = results
+        results.append((r.FV().NumPy()[shell.free_mask].copy(), shell.energy()))
+    (r0, e0), (r1, e1) = results
     assert np.linalg.norm(r1 - r0) <= 1e-10 * np.linalg.norm(r0)
-    assert abs(K1 - K0).max() <= 1e-10 * abs(K0).max()
+    assert abs(e1 - e0) <= 1e-12 * abs(e0)
 
 
 def test_realcompile_must_be_a_bool():
