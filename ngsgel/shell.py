@@ -351,7 +351,7 @@ class GelShell(BuiltOnDemand):
         self._solver = LinearSolver(self._space.FreeDofs(), inverse=self.inverse)
         skin = self._kinematics(self._scratch.components[0], list(self._scratch.components[2:]))
         bad = sum(ngs.IfPos(m, 0.0, 1.0) for m in skin["margins"])
-        self._indicator = bad
+        self._indicator = bad.Compile()  # evaluated at every line-search trial point
         self._point_dofs = []
         for vertices, force, scale in self._point_loads:
             self._point_dofs.append((self._vertex_dofs(int(vertices[0])), force, scale))
