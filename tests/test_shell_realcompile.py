@@ -13,6 +13,7 @@ import pytest
 from geometries import cap_midsurface
 from ngsgel import FloryRehnerGel
 from ngsgel.shell import GelShell
+from ngsgel.stability import free_matrix
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 
@@ -41,6 +42,22 @@ def test_compiled_shell_has_the_same_residual_and_energy():
     (r0, e0), (r1, e1) = results
     assert np.linalg.norm(r1 - r0) <= 1e-10 * np.linalg.norm(r0)
     assert abs(e1 - e0) <= 1e-12 * abs(e0)
+
+    # the compiled shell's residual and tangent are two forms: the tangent must be the derivative
+    # of the compiled residual (central difference along a random free direction)
+    shell = shells[1]
+    direction = 1e-3 * rng.standard_normal(shell.state.size) * shell.free_mask
+    K = free_matrix(shell.tangent(shell.state), shell.free_mask)
+    eps = 1e-6
+    sides = []
+    for sign in (1, -1):
+        shell.state.FV().NumPy()[:] = state + sign * eps * direction
+        r = shell.state.CreateVector()
+        shell.residual(shell.state, r)
+        sides.append(r.FV().NumPy()[shell.free_mask].copy())
+    difference = (sides[0] - sides[1]) / (2 * eps)
+    linear = K @ direction[shell.free_mask]
+    assert np.linalg.norm(difference - linear) <= 1e-6 * np.linalg.norm(linear)
 
 
 def test_realcompile_must_be_a_bool():
