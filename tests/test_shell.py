@@ -233,6 +233,18 @@ def random_state(shell: GelShell, *, amplitude: float, seed: int) -> None:
     shell.restore_state(state)
 
 
+def test_a_layer_squeezed_below_the_dry_volume_is_not_admissible():
+    """``admissible`` (the compiled indicator the line searches call) rejects J <= 1 anywhere:
+    one element's layer stretch squeezed so that lam0^3 det F < 1 there."""
+    mesh = sphere_octant_band(maxh=0.5)
+    shell = GelShell(mesh, material=GEL, lam0=LAM0, thickness=0.05, mu=MU0)
+    shell.form
+    assert shell.admissible(shell.state)
+    stretch = shell.gf.components[2]
+    stretch.vec.FV().NumPy()[: stretch.space.ndof // mesh.GetNE(ngs.BND)] *= 0.9 / LAM0**3
+    assert not shell.admissible(shell.state)
+
+
 def test_tangent_is_the_derivative_of_the_residual():
     mesh = sphere_octant_band(maxh=0.5)
     shell = GelShell(mesh, material=GEL, lam0=LAM0, thickness=0.05, mu=MU0)
