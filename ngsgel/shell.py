@@ -60,11 +60,11 @@ Limits: each element measures its normal angle against the averaged edge normal;
 degrees of rotation against it ``acos`` degenerates, so runs with large rotations call
 ``update_edge_normals`` between load steps (a strip rolled to a quarter circle this way is exact
 to 4e-5). Membrane locking of curved shells is not treated by Regge interpolation (order 3 gave
-the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %). The tangent costs ~6 ms per
-order-3 element and Newton step on 2 threads (graded half disk, 78 triangles: 0.49 s interpreted
-with symbolically differentiated blocks, 0.51 s compiled to C++ after a ~30 s compilation; the
-interpreted default before the symbolic blocks: 0.8-0.9 s), 25x the residual: the shell is
-cheap in unknowns, not yet per unknown.
+the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %). The tangent (interpreted, with
+symbolically differentiated blocks, also when ``realcompile`` compiles the residual) costs ~4 ms
+per order-3 element and Newton step on 2 threads (graded half disk, 78 triangles: 0.29 s; as fast
+as the C++-compiled second derivatives, which took ~30 s to compile), 25x the residual: the shell
+is cheap in unknowns, not yet per unknown.
 """
 
 from __future__ import annotations

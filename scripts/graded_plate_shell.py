@@ -176,7 +176,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
             leg_options = {"newton_options": newton_options}
             if natural:
                 leg_options = {"easy_iterations": EASY_ITERATIONS,
-                                   "newton_options": {**newton_options, "stall_window": STALL_WINDOW}}
+                               "newton_options": {**newton_options, "stall_window": STALL_WINDOW}}
             try:
                 path = follow_path(shell, shell.mu, method="natural" if natural else "arclength",
                                    step=step / 5 if natural else step, max_step=step,
