@@ -101,7 +101,8 @@ class History:
 
 class VTKSeries:
     """ParaView output of named fields, one ``.vtu`` per call of ``write(time)``, indexed by a
-    ``.pvd`` file rewritten after each write (readable while the run goes on)."""
+    ``.pvd`` file rewritten after each write (readable while the run goes on). A mesh without
+    volume elements (a shell's mid-surface in 3D) writes its surface elements."""
 
     def __init__(self, mesh: ngs.Mesh, fields: Mapping[str, ngs.CoefficientFunction], path: str | Path,
                  *, subdivision: int = 1):
@@ -109,10 +110,11 @@ class VTKSeries:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._vtk = ngs.VTKOutput(mesh, coefs=list(fields.values()), names=list(fields.keys()),
                                   filename=str(self.path), subdivision=subdivision)
+        self._vb = ngs.VOL if mesh.ne > 0 else ngs.BND
         self.times: list[float] = []
 
     def write(self, time: float) -> None:
-        self._vtk.Do(time=time)
+        self._vtk.Do(time=time, vb=self._vb)
         self.times.append(time)
 
 

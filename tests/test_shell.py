@@ -15,6 +15,7 @@ import bench_shell  # scripts/ (tests/conftest.py): the benchmark's cases are th
 from geometries import cap_midsurface, cap_section, plate_midsurface
 from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp,
                     spectrum)
+from ngsgel.output import VTKSeries
 from ngsgel.stability import conjugate_force, mode_function
 from ngsgel.shell import GelShell
 
@@ -338,6 +339,18 @@ def test_outputs_of_a_swelling_clamped_plate():
     assert np.max(np.abs(M)) < 1e-8 * abs(expected_N) * shell.thickness
     lam3 = shell.thickness_stretch()(point)
     assert lam3 - 1 == pytest.approx((1 + nu) / (1 - nu) * (c - 1), rel=2e-3)
+
+
+def test_vtk_output_of_a_shell_holds_its_surface(tmp_path):
+    # a mid-surface mesh has no volume elements: the series must write its surface triangles
+    # (each subdivided), not an empty grid
+    mesh = quarter_plate()
+    shell = GelShell(mesh, material=GEL, lam0=LAM0, thickness=0.02, mu=MU0)
+    series = VTKSeries(mesh, shell.fields(), tmp_path / "shell")
+    series.write(0.0)
+    header = (tmp_path / "shell.vtu").read_text(errors="replace")[:400]
+    cells = int(header.split('NumberOfCells="')[1].split('"')[0])
+    assert cells >= mesh.GetNE(ngs.BND) > 0
 
 
 def test_swelling_buckling_of_a_clamped_plate_matches_the_classical_load():
