@@ -58,6 +58,12 @@ STALL_WINDOW = 10
 # The residual target is strict (the soft branches need it): even small converging natural steps
 # take 5-7 iterations there, so the driver's default (grow after <= 4) never lets them grow again
 EASY_ITERATIONS = 7
+# The natural legs halve a failed step down to step / MIN_STEP_DIVISOR: where they stall, the
+# fold lies within the last failed step (< 2 step / MIN_STEP_DIVISOR) past the last converged
+# state, so a snap must overshoot more than that, or it relaxes before the fold, where the
+# nearly singular branch still exists (measured: overshoot 2.5e-4 at step 0.05, the flow then
+# cycled at residual 4e-12 ... 6e-9 for 300 pseudo-time steps and raised SettleError)
+MIN_STEP_DIVISOR = 160
 
 
 class RimWaves:
@@ -128,7 +134,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     ``through_snaps`` (with ``switch_all`` False): the legs after the first follow ``mu`` in
     natural steps (``step / 5`` growing to ``step``; a solve gives up after ``STALL_WINDOW`` iterations
     that do not halve its residual, a step grows after <= ``EASY_ITERATIONS``) and also end where the followed branch loses
-    stability or the steps stall (below ``step / 160``: a fold); the disk then snaps at ``mu`` =
+    stability or the steps stall (below ``step / MIN_STEP_DIVISOR``: a fold); the disk then snaps at ``mu`` =
     critical (or last) + ``snap_overshoot`` (at most 0) (``ngsgel.relaxation.settle_after``: pushed 0.1 t
     along the critical mode, relaxed by the overdamped flow to a stable state, reported in
     ``events.json`` as "snap") and the next leg follows the branch it lands on."""
@@ -136,6 +142,9 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
     if not snap_overshoot > 0:
         raise ValueError(f"snap_overshoot must be positive (mu rises), got {snap_overshoot!r}")
+    if through_snaps and not switch_all and not snap_overshoot > 2 * step / MIN_STEP_DIVISOR:
+        raise ValueError(f"snap_overshoot must exceed 2 step / {MIN_STEP_DIVISOR} = {2 * step / MIN_STEP_DIVISOR:g} "
+                         f"(the resolution of a stalled natural leg), got {snap_overshoot!r}")
     if quick:  # the coarsest mesh whose onset is right (at h = 0.3 it comes at a mu 42 % lower)
         maxh, max_steps, realcompile, half = 0.2, min(max_steps, 8), False, True
         switch_all, through_snaps = False, False
@@ -180,7 +189,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
             try:
                 path = follow_path(shell, shell.mu, method="natural" if natural else "arclength",
                                    step=step / 5 if natural else step, max_step=step,
-                                   min_step=step / 160 if natural else None, target=0.0, stability=stability,
+                                   min_step=step / MIN_STEP_DIVISOR if natural else None, target=0.0, stability=stability,
                                    qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
                                    vtk=vtk, progress=progress, **leg_options)
             except ContinuationError as exc:  # the path so far is kept: reported, or (snapping) a stall

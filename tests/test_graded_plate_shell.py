@@ -48,3 +48,10 @@ def test_quick_run_switches_onto_the_saddle_at_the_converged_onset(tmp_path):
 def test_seeded_pattern_rejects_bad_input_before_work(tmp_path, options, match):
     with pytest.raises(ValueError, match=match):
         graded_plate_shell.seeded_pattern(str(tmp_path), p=10.0, **options)
+
+
+@pytest.mark.parametrize("overshoot", [0.0, 2.5e-4, 2 * 0.05 / graded_plate_shell.MIN_STEP_DIVISOR])
+def test_a_snap_overshoot_inside_the_stall_resolution_is_rejected_before_work(tmp_path, overshoot):
+    with pytest.raises(ValueError, match="snap_overshoot must"):
+        graded_plate_shell.run(str(tmp_path), step=0.05, snap_overshoot=overshoot)
+    assert not any(tmp_path.iterdir())
