@@ -45,7 +45,7 @@ from ngsgel.relaxation import settle, settle_after
 from ngsgel.stepping import RampError
 from ngsgel.stability import free_matrix, negative_count
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
-from ngsgel.patterns import penetration_depth, wave_number
+from ngsgel.patterns import penetration_depth, periodic_peaks, wave_number
 
 RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
 MU_START = -0.3  # below the k = 2 onsets of every p at h = 0.2 (the lowest: -0.291, p = 2)
@@ -68,7 +68,9 @@ MIN_STEP_DIVISOR = 160
 
 class RimWaves:
     """Fourier content of the shell's deflection on the circle ``radius`` at the current state
-    (computed once per state)."""
+    (computed once per state), and its crests (peaks of at least a tenth of the deflection's range
+    along the circle: the waves one counts on a picture, which a modulated or tilted edge wave
+    shows more plainly than the purity of its dominant harmonic)."""
 
     def __init__(self, shell, mesh: ngs.Mesh, *, radius: float = RIM_RADIUS, n: int = RIM_SAMPLES,
                  max_mode: int = RIM_MODES, half: bool = False):
@@ -86,10 +88,10 @@ class RimWaves:
             if np.ptp(w) > 0:
                 analysis = wave_number(w, max_mode=self.max_mode)
                 values.update(rim_k=analysis.k, rim_amplitude=analysis.amplitude, rim_purity=analysis.purity,
-                              rim_k_second=analysis.second,
+                              rim_k_second=analysis.second, rim_crests=periodic_peaks(w).count,
                               **{f"rim_a{m}": float(analysis.spectrum[m]) for m in range(1, self.max_mode + 1)})
             else:  # the flat state: no wave
-                values.update(rim_k=0, rim_amplitude=0.0, rim_purity=0.0, rim_k_second=0,
+                values.update(rim_k=0, rim_amplitude=0.0, rim_purity=0.0, rim_k_second=0, rim_crests=0,
                               **{f"rim_a{m}": 0.0 for m in range(1, self.max_mode + 1)})
             self._key, self._values = key, values
         return self._values
@@ -99,7 +101,7 @@ class RimWaves:
         return {name: (lambda name=name: self.values()[name]) for name in names}
 
     def _names(self):
-        yield from ("rim_k", "rim_amplitude", "rim_purity", "rim_k_second", "rim_mean_w", "rim_max_abs_w")
+        yield from ("rim_k", "rim_amplitude", "rim_purity", "rim_k_second", "rim_crests", "rim_mean_w", "rim_max_abs_w")
         yield from (f"rim_a{m}" for m in range(1, self.max_mode + 1))
 
 

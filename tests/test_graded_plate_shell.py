@@ -27,6 +27,20 @@ def test_pattern_depth_of_an_exponentially_decaying_edge_wave(half):
     assert rim == pytest.approx(math.exp(-0.03 / decay), rel=1e-3)
 
 
+@pytest.mark.parametrize("half", [True, False])
+def test_rim_crests_count_a_modulated_tilted_edge_wave(half):
+    # 8 waves whose amplitude varies around the rim (|1 + 0.6 cos 2 theta| between 0.4 and 1.6)
+    # on a global tilt: the dominant harmonic holds well under all of it, the crests are 8
+    shell, mesh, _ = bench_shell.graded_plate_shell(10.0, maxh=0.15, order=3, half=half)
+    r = ngs.sqrt(ngs.x**2 + ngs.y**2)
+    theta = ngs.atan2(ngs.y, ngs.x)
+    w = r**8 * (1 + 0.6 * ngs.cos(2 * theta)) * ngs.cos(8 * theta) + 0.3 * r * ngs.cos(theta)
+    shell.displacement.Set(ngs.CF((0, 0, w)), definedon=mesh.Boundaries(".*"))
+    values = graded_plate_shell.RimWaves(shell, mesh, half=half).values()
+    assert values["rim_k"] == 8 and values["rim_purity"] < 0.8
+    assert values["rim_crests"] == 8
+
+
 @pytest.mark.slow
 def test_quick_run_switches_onto_the_saddle_at_the_converged_onset(tmp_path):
     # --quick (half disk, h = 0.2, about 2 min): the flat disk loses stability at the onset of the
@@ -40,6 +54,7 @@ def test_quick_run_switches_onto_the_saddle_at_the_converged_onset(tmp_path):
     assert onset["mode_k"] == 2
     assert summary["negative_end"] == 0 and summary["mu_end"] > onset["mu"]
     assert summary["rim_end"]["rim_k"] == 2 and summary["rim_end"]["rim_purity"] > 0.9
+    assert summary["rim_end"]["rim_crests"] == 2
     assert summary["rim_end"]["rim_amplitude"] > 0.1 * 0.01
 
 
