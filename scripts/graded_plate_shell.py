@@ -9,16 +9,19 @@ k = 2 saddle, docs/graded.md) the driver switches onto the branch along the crit
 same way at every later change of the negative count.
 Along the path the deflection ``w`` (z displacement; rigid tilt is removed by the pins) is
 sampled on the circle ``r = 0.97 R`` and its Fourier content recorded: the dominant wave number,
-its amplitude, the runner-up, the purity and the amplitudes of ``k = 1 .. 12``. Each event's
+its amplitude, the runner-up, the purity, the amplitudes of ``k = 1 .. 12`` and the
+number of crests. Each event's
 critical mode gets its wave number (``bench_shell.plate_mode_wave``).
 
 By default (the half disk: the k = 2 onset of the full disk is a double eigenvalue, along which a
 one-mode switch does not converge; ``--full-disk``, ``--switch-all``, ``--no-snaps`` for the other
 protocols) the run ramps the flat disk to ``mu = -0.3``, switches once onto the saddle, follows the
-buckled branch until it loses stability, lets the disk snap there (``ngsgel.relaxation.settle_past``: the
+buckled branch until it loses stability, lets the disk snap there (``ngsgel.relaxation.settle_after``: the
 overdamped flow at ``mu`` just beyond the critical value, from the critical state pushed along
 its mode, to a stable equilibrium) and follows the branch it lands on, as often as needed to
-reach ``mu = 0``: the pattern the plate ends with.
+reach ``mu = 0``: the pattern the plate ends with. Resolution: the default ``--maxh 0.2`` (5-8 min)
+shows the sequence (p = 10: 2 -> 4 -> 6), but the rim's end pattern needs finer elements:
+``--maxh 0.1`` (about 35 min) ends at p = 10 with the thesis's k = 8 (as does 0.15; docs/graded.md).
 
 Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summary.json``
 (with the penetration depth of the final dominant wave, ``pattern_depth``), ``snaps.json``,
