@@ -147,12 +147,12 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
     if not snap_overshoot > 0:
         raise ValueError(f"snap_overshoot must be positive (mu rises), got {snap_overshoot!r}")
-    if through_snaps and not switch_all and not snap_overshoot > 2 * step / MIN_STEP_DIVISOR:
-        raise ValueError(f"snap_overshoot must exceed 2 step / {MIN_STEP_DIVISOR} = {2 * step / MIN_STEP_DIVISOR:g} "
-                         f"(the resolution of a stalled natural leg), got {snap_overshoot!r}")
     if quick:  # the coarsest mesh whose onset is right (at h = 0.3 it comes at a mu 42 % lower)
         maxh, max_steps, realcompile, half = 0.2, min(max_steps, 8), False, True
         switch_all, through_snaps = False, False
+    if through_snaps and not snap_overshoot > 2 * step / MIN_STEP_DIVISOR:  # only snapping legs use it
+        raise ValueError(f"snap_overshoot must exceed 2 step / {MIN_STEP_DIVISOR} = {2 * step / MIN_STEP_DIVISOR:g} "
+                         f"(the resolution of a stalled natural leg), got {snap_overshoot!r}")
     params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
                   switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot, quick=quick,
