@@ -35,7 +35,7 @@ from ngsgel.patterns import sample_on_circle, wave_number
 from ngsgel.shell import GelShell, plate_bending_stiffness
 from ngsgel.stability import conjugate_force, load_rate
 
-from microlens import cap_wave_number
+from microlens import cap_waves
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 MU0, MU1 = -0.05, -0.049
@@ -202,10 +202,11 @@ def cap_shell_pressure_stiffness(*, maxh: float, apex_maxh: float, order: int) -
 
 def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float,
                radii: np.ndarray) -> dict:
-    """Wave number of a critical mode of the full cap (``microlens.cap_wave_number``: its normal
+    """Wave number of a critical mode of the full cap (``microlens.cap_waves``: its normal
     displacement on circles of the mid-surface, the circle of the largest non-axisymmetric part)."""
-    rho, analysis = cap_wave_number(mode_u, mesh, r=r, zc=zc, half=False, radii=radii)
-    return {"k": analysis.k, "purity": analysis.purity, "mode_radius": rho, "k_second": analysis.second}
+    waves = cap_waves(mode_u, mesh, r=r, zc=zc, half=False, radii=radii)
+    return {"k": waves.analysis.k, "purity": waves.analysis.purity, "mode_radius": waves.radius,
+            "k_second": waves.analysis.second}
 
 
 def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: float = 0.8,

@@ -62,7 +62,7 @@ from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path
 from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions  # noqa: E402
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
-from ngsgel.patterns import WaveAnalysis, load_drops, wave_number  # noqa: E402
+from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_number  # noqa: E402
 from ngsgel.relaxation import settle_after  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stability import conjugate_force  # noqa: E402
@@ -189,13 +189,27 @@ class ShellResolution:
             raise ValueError(f"order must be an integer in [2, 5] for the shell, got {self.order!r}")
 
 
-def cap_wave_number(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float, half: bool,
-                    radii=np.linspace(0.1, 0.9, 9), n: int = 64) -> tuple[float, WaveAnalysis | None]:
-    """Dominant ``cos k theta`` of the normal displacement ``u . (X - zc e_z)/r`` of a cap's
-    mid-surface (sphere of radius ``r`` centred at height ``zc``), sampled on the circles of
-    horizontal radii ``radii``; the circle where the non-axisymmetric part is largest decides.
-    ``half``: the mesh is the half ``y >= 0`` of a mirror-symmetric cap (``u(theta) = u(-theta)``).
-    Returns that radius and the analysis (``None`` where every circle is exactly constant)."""
+@dataclass(frozen=True)
+class CapWaves:
+    """Waves of a cap's normal deflection ``w`` on the circle where its non-axisymmetric part is
+    largest (horizontal radius ``radius``): the Fourier analysis (``None`` where every circle is
+    exactly constant), and the number of bulges (outward peaks of ``w``) and dents (peaks of
+    ``-w``) there, each of at least 0.1 of ``w``'s range (``ngsgel.patterns.periodic_peaks``). A
+    pure ``cos k theta`` has ``k`` of each; a broken polygon (three dents of a four-fold
+    arrangement) shows up here, not in the dominant ``k``."""
+
+    radius: float
+    analysis: WaveAnalysis | None
+    bulges: int
+    dents: int
+
+
+def cap_waves(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float, half: bool,
+              radii=np.linspace(0.1, 0.9, 9), n: int = 64) -> CapWaves:
+    """``CapWaves`` of the normal displacement ``w = u . (X - zc e_z)/r`` of a cap's mid-surface
+    (sphere of radius ``r`` centred at height ``zc``; ``w > 0`` away from the centre), sampled at
+    ``n`` angles on the circles of horizontal radii ``radii``.
+    ``half``: the mesh is the half ``y >= 0`` of a mirror-symmetric cap (``u(theta) = u(-theta)``)."""
     w = ngs.InnerProduct(u, ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r)
     theta = 2.0 * np.pi * np.arange(n) / n
     best = None
@@ -207,8 +221,12 @@ def cap_wave_number(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc:
             continue
         analysis = wave_number(values, max_mode=12)
         if best is None or analysis.amplitude > best[1].amplitude:
-            best = (float(rho), analysis)
-    return best if best is not None else (float(radii[0]), None)
+            best = (float(rho), analysis, values)
+    if best is None:
+        return CapWaves(radius=float(radii[0]), analysis=None, bulges=0, dents=0)
+    rho, analysis, values = best
+    return CapWaves(radius=rho, analysis=analysis, bulges=periodic_peaks(values).count,
+                    dents=periodic_peaks(-values).count)
 
 
 class ShellCap:
@@ -229,7 +247,7 @@ class ShellCap:
             self.shell.symmetry("sym", normal="y")
         self.depth = ngs.Parameter(0.0)
         self.shell.prescribe_region("apex", case.component, case.sign * self.depth)
-        self._waves: tuple[float, WaveAnalysis | None] = (0.0, None)
+        self._waves = CapWaves(radius=0.0, analysis=None, bulges=0, dents=0)
 
     def force(self) -> float:
         """``F/(E0 t^2)`` of the whole cap (twice the half cap's)."""
@@ -243,24 +261,37 @@ class ShellCap:
         """Vertex count of the current state: 0 while the dominant wave's normal deflection is
         below 0.05 t (the discretisation's own asymmetry and the growth of the critical mode just
         before a bifurcation stay below: 0.005 t at 0.99 of the onset depth, h = 0.05)."""
-        self._waves = cap_wave_number(self.shell.displacement, self.mesh, r=self.case.r, zc=self.case.H - self.case.r,
-                                      half=self.res.half)
-        return float(self._waves[1].k) if self.wave_amplitude() > 0.05 else 0.0
+        self._waves = cap_waves(self.shell.displacement, self.mesh, r=self.case.r, zc=self.case.H - self.case.r,
+                                half=self.res.half)
+        return float(self._waves.analysis.k) if self._patterned() else 0.0
+
+    def _patterned(self) -> bool:
+        return self.wave_amplitude() > 0.05
 
     def wave_amplitude(self) -> float:
         """Amplitude of the dominant wave over ``t`` (of the last ``update_waves``)."""
-        analysis = self._waves[1]
+        analysis = self._waves.analysis
         return 0.0 if analysis is None else analysis.amplitude / self.case.t
 
     def second_wave(self) -> float:
         """The runner-up wave number on the same circle (a broken symmetry of the polygon shows
         here first: e.g. 4 or 5 next to a dominant 3)."""
-        analysis = self._waves[1]
+        analysis = self._waves.analysis
         return 0.0 if analysis is None else float(analysis.second)
 
     def second_amplitude(self) -> float:
-        analysis = self._waves[1]
+        analysis = self._waves.analysis
         return 0.0 if analysis is None else analysis.spectrum[analysis.second] / self.case.t
+
+    def dents(self) -> float:
+        """Inward peaks of the deflection on the wave's circle (0 while the last ``update_waves`` found
+        no pattern)."""
+        return float(self._waves.dents) if self._patterned() else 0.0
+
+    def bulges(self) -> float:
+        """Outward peaks of the deflection on the wave's circle (0 while the last ``update_waves``
+        found no pattern)."""
+        return float(self._waves.bulges) if self._patterned() else 0.0
 
 
 def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step: float, max_step: float,
@@ -276,7 +307,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
     qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "mu": lambda: cap.shell.mu.Get(), "force": cap.force,
            "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
-           "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude}
+           "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude, "dents": cap.dents,
+           "bulges": cap.bulges}
     try:
         # a step cut to 1/16 of the first has met a state Newton cannot reach: stop there (stalled)
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
@@ -486,14 +518,15 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
 
 
 def vertex_sequence(path: PathResult) -> list[dict]:
-    """The states along the path where the vertex count changes: ``k`` from then on."""
+    """The states along the path where the vertex count ``k`` or the number of dents changes:
+    both from then on."""
     changes, last = [], None
     for point in path.points:
-        k = int(point.qoi["k"])
-        if k != last:
-            changes.append({"d_over_H": float(point.qoi["d_over_H"]), "mu": float(point.qoi["mu"]), "k": k,
-                            "force": float(point.qoi["force"])})
-            last = k
+        pattern = (int(point.qoi["k"]), int(point.qoi["dents"]))
+        if pattern != last:
+            changes.append({"d_over_H": float(point.qoi["d_over_H"]), "mu": float(point.qoi["mu"]), "k": pattern[0],
+                            "dents": pattern[1], "force": float(point.qoi["force"])})
+            last = pattern
     return changes
 
 
@@ -525,7 +558,8 @@ def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *,
                   "energy": settled.energy_end, "from": path.checkpoint.parameter, "to": parameter.Get(),
                   "d_over_H": cap.depth.Get() / cap.case.H, "mu": cap.shell.mu.Get(),
                   "force_before": last.qoi["force"], "k_before": last.qoi["k"], "force_after": cap.force(),
-                  "k_after": cap.update_waves(), "energy_drop": settled.energy_drop, "distance": settled.distance,
+                  "k_after": cap.update_waves(), "dents_before": last.qoi["dents"], "dents_after": cap.dents(),
+                  "energy_drop": settled.energy_drop, "distance": settled.distance,
                   "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
                   "lowest_eigenvalue": settled.lowest_eigenvalue,
                   "wall_s": time.perf_counter() - clock, "stalled": path.stop_reason}
@@ -534,7 +568,8 @@ def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *,
         if progress is not None:
             progress(f"snap to d/H {record['d_over_H']:.4f}, mu {record['mu']:.4g}: force "
                      f"{record['force_before']:.5g} -> {record['force_after']:.5g}, "
-                     f"k {record['k_before']:.0f} -> {record['k_after']:.0f}")
+                     f"k {record['k_before']:.0f} -> {record['k_after']:.0f}, "
+                     f"dents {record['dents_before']:.0f} -> {record['dents_after']:.0f}")
     points = [pt for leg in legs for pt in leg.points]
     events = [ev for leg in legs for ev in leg.events]
     events += [Event(kind="snap", step=r["after_step"], parameter=r["to"], negative_before=r["negative_before"],

@@ -59,19 +59,26 @@ def test_bad_input_is_rejected():
             microlens.run_shell(case, res, "unused", **kwargs)
 
 
-@pytest.mark.parametrize("half", [True, False])
-def test_cap_wave_number_counts_the_vertices_of_a_polygonal_dimple(half):
-    # A normal deflection a(r) cos 3 theta plus an axisymmetric dent on the mid-surface mesh of
-    # the cap: the count is 3 with the amplitude of the ring where a(r) peaks (r = 0.4), on the
-    # mirror half (sampled through |y|) as on the whole cap; an exactly axisymmetric field has none.
+def _cap_with_normal(half: bool):
     from geometries import cap_midsurface
     import ngsolve as ngs
 
     case = microlens.Indentation(H=0.3)
-    r, zc = case.r, case.H - case.r
+    zc = case.H - case.r
     mesh = cap_midsurface(H=0.3, maxh=0.1, curve_order=3, half=half).mesh
+    return case, zc, mesh, ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / case.r
+
+
+@pytest.mark.parametrize("half", [True, False])
+def test_cap_waves_counts_the_vertices_of_a_polygonal_dimple(half):
+    # A normal deflection a(r) cos 3 theta plus an axisymmetric dent on the mid-surface mesh of
+    # the cap: the count is 3 with the amplitude of the ring where a(r) peaks (r = 0.4), on the
+    # mirror half (sampled through |y|) as on the whole cap, with 3 bulges and 3 dents; an
+    # exactly axisymmetric field has none.
+    import ngsolve as ngs
+
+    case, zc, mesh, normal = _cap_with_normal(half)
     rho = ngs.sqrt(ngs.x**2 + ngs.y**2)
-    normal = ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r
     cos3 = (4 * ngs.x**3 - 3 * ngs.x * rho**2) / (rho**3 + 1e-30)
     ring = ngs.exp(-((rho - 0.4) / 0.1) ** 2)
     amplitude = 0.02
@@ -79,13 +86,38 @@ def test_cap_wave_number_counts_the_vertices_of_a_polygonal_dimple(half):
     V = ngs.VectorH1(mesh, order=3)
     u = ngs.GridFunction(V)
     u.Set((amplitude * ring * cos3 + dent) * normal, definedon=mesh.Boundaries(".*"))
-    radius, analysis = microlens.cap_wave_number(u, mesh, r=r, zc=zc, half=half)
-    assert analysis.k == 3 and analysis.purity > 0.99
-    assert radius == pytest.approx(0.4)
-    assert analysis.amplitude == pytest.approx(amplitude, rel=0.02)
+    waves = microlens.cap_waves(u, mesh, r=case.r, zc=zc, half=half)
+    assert waves.analysis.k == 3 and waves.analysis.purity > 0.99
+    assert waves.radius == pytest.approx(0.4)
+    assert waves.analysis.amplitude == pytest.approx(amplitude, rel=0.02)
+    assert waves.bulges == waves.dents == 3
     u.Set(dent * normal, definedon=mesh.Boundaries(".*"))
-    radius, analysis = microlens.cap_wave_number(u, mesh, r=r, zc=zc, half=half)
-    assert analysis is None or analysis.amplitude < 1e-3 * amplitude
+    waves = microlens.cap_waves(u, mesh, r=case.r, zc=zc, half=half)
+    assert waves.analysis is None or waves.analysis.amplitude < 1e-3 * amplitude
+
+
+@pytest.mark.parametrize("half", [True, False])
+def test_cap_waves_counts_three_dents_of_a_four_fold_arrangement(half):
+    # Inward lobes at 0, 90 and 270 degrees (mirror-symmetric about y = 0), the one at 180 missing:
+    # the state the outward H = 0.8R shell reached at h = 0.08. The dominant harmonic cannot say
+    # "three of four"; the dent count does, and a lobe at 180 makes it four.
+    import ngsolve as ngs
+
+    case, zc, mesh, normal = _cap_with_normal(half)
+    rho = ngs.sqrt(ngs.x**2 + ngs.y**2) + 1e-30
+    ring = ngs.exp(-((rho - 0.4) / 0.1) ** 2)
+
+    def lobe(cos_angle, sin_angle):  # exp((cos(theta - angle) - 1)/0.05): width ~0.3 rad
+        return ngs.exp(((ngs.x * cos_angle + ngs.y * sin_angle) / rho - 1) / 0.05)
+
+    three = lobe(1, 0) + lobe(0, 1) + lobe(0, -1)
+    u = ngs.GridFunction(ngs.VectorH1(mesh, order=3))
+    u.Set(-0.02 * ring * three * normal, definedon=mesh.Boundaries(".*"))
+    waves = microlens.cap_waves(u, mesh, r=case.r, zc=zc, half=half)
+    assert waves.dents == 3 and waves.radius == pytest.approx(0.4)
+    u.Set(-0.02 * ring * (three + lobe(-1, 0)) * normal, definedon=mesh.Boundaries(".*"))
+    waves = microlens.cap_waves(u, mesh, r=case.r, zc=zc, half=half)
+    assert waves.dents == 4 and waves.analysis.k == 4
 
 
 @pytest.mark.slow
