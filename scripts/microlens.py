@@ -111,6 +111,11 @@ class Indentation:
         """Component of the apex displacement that is prescribed."""
         return "x" if self.direction == "lateral" else "z"
 
+    @property
+    def depth_column(self) -> str:
+        """The path column of the thesis's depth axis: ``d/R`` for a lateral load, ``d/H`` otherwise."""
+        return "d_over_R" if self.direction == "lateral" else "d_over_H"
+
 
 @dataclass(frozen=True)
 class SectionResolution:
@@ -305,7 +310,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
-    qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "mu": lambda: cap.shell.mu.Get(), "force": cap.force,
+    qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "d_over_R": cap.depth.Get, "mu": lambda: cap.shell.mu.Get(),
+           "force": cap.force,
            "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
            "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude, "dents": cap.dents,
            "bulges": cap.bulges}
@@ -448,14 +454,16 @@ def fits(case: Indentation, path: PathResult, fit_depth: float) -> dict:
             "fit_range_d_over_H": fit_depth}
 
 
-def finish_force_figure(fig, ax, bx, path: PathResult, title: str, filename) -> None:
-    """Labels of the force panel ``ax``, the volume change along the path in ``bx``, saved."""
-    ax.set_xlabel("d/H")
+def finish_force_figure(fig, ax, bx, path: PathResult, title: str, filename, *, column: str = "d_over_H") -> None:
+    """Labels of the force panel ``ax`` (depth axis ``column``), the volume change along the path
+    in ``bx``, saved."""
+    label = column.replace("_over_", "/")
+    ax.set_xlabel(label)
     ax.set_ylabel("F/(E0 t^2)")
     ax.set_title(title)
     ax.legend(fontsize=7)
-    bx.plot(path.column("d_over_H"), 100 * path.column("volume_change"), color="k")
-    bx.set_xlabel("d/H")
+    bx.plot(path.column(column), 100 * path.column("volume_change"), color="k")
+    bx.set_xlabel(label)
     bx.set_ylabel("gel volume change (%)")
     fig.tight_layout()
     fig.savefig(filename, dpi=130)
@@ -524,8 +532,9 @@ def vertex_sequence(path: PathResult) -> list[dict]:
     for point in path.points:
         pattern = (int(point.qoi["k"]), int(point.qoi["dents"]))
         if pattern != last:
-            changes.append({"d_over_H": float(point.qoi["d_over_H"]), "mu": float(point.qoi["mu"]), "k": pattern[0],
-                            "dents": pattern[1], "force": float(point.qoi["force"])})
+            changes.append({"d_over_H": float(point.qoi["d_over_H"]), "d_over_R": float(point.qoi["d_over_R"]),
+                            "mu": float(point.qoi["mu"]), "k": pattern[0], "dents": pattern[1],
+                            "force": float(point.qoi["force"])})
             last = pattern
     return changes
 
@@ -596,14 +605,16 @@ def shell_summary(case: Indentation, cap: ShellCap, stages: list[tuple[str, Path
 
 def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> None:
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
-    d, f, k = path.column("d_over_H"), path.column("force"), path.column("k")
+    column = case.depth_column
+    scale = 1.0 if column == "d_over_H" else case.H  # events are stored in d/H
+    d, f, k = path.column(column), path.column("force"), path.column("k")
     ax.plot(d, f, "-", color="k", lw=1.0)
     for kk in sorted(set(k.astype(int))):
         sel = k == kk
         ax.plot(d[sel], f[sel], "o", ms=3, label="axisymmetric" if kk == 0 else f"{kk} vertices")
     for ev in summary["indentation"]["events"]:
-        ax.axvline(ev["d_over_H"], color="tab:blue", lw=0.6, ls=":")
-    finish_force_figure(fig, ax, bx, path, f"shell, H/R = {case.H:g}, {case.direction}", filename)
+        ax.axvline(ev["d_over_H"] * scale, color="tab:blue", lw=0.6, ls=":")
+    finish_force_figure(fig, ax, bx, path, f"shell, H/R = {case.H:g}, {case.direction}", filename, column=column)
 
 
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,

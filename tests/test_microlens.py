@@ -120,6 +120,31 @@ def test_cap_waves_counts_three_dents_of_a_four_fold_arrangement(half):
     assert waves.dents == 4 and waves.analysis.k == 4
 
 
+def test_lateral_shell_force_is_the_derivative_of_the_energy_and_tilts_the_cap():
+    # The lateral load of the half cap (mirror plane y = 0 containing the load): the reported
+    # force, twice the half cap's reaction, must be dE/dd of the whole cap (twice the half's
+    # energy), and the deflection it causes is the tilt cos(theta), not an axisymmetric dimple.
+    # The response is strongly curved here (the central difference errs by 2.2e-4, 5.6e-5, 1.4e-5
+    # at delta = 1e-4, 5e-5, 2.5e-5: O(delta^2)), hence the small delta.
+    case = microlens.Indentation(H=0.3, direction="lateral", depth=1.0)
+    assert case.depth_column == "d_over_R"
+    cap = microlens.ShellCap(case, microlens.ShellResolution(maxh=0.3, apex_maxh=0.05, order=2, realcompile=False))
+    d, delta = 0.002, 2.5e-5
+    cap.depth.Set(d)
+    cap.shell.solve()
+    force = cap.force()
+    assert force > 0 and cap.update_waves() == 1
+    equilibrium = cap.shell.state.CreateVector()
+    equilibrium.data = cap.shell.state
+    energy = []
+    for depth in (d + delta, d - delta):
+        cap.shell.state.data = equilibrium
+        cap.depth.Set(depth)
+        cap.shell.solve()
+        energy.append(2.0 * cap.shell.energy() / cap.force_scale)
+    assert force == pytest.approx((energy[0] - energy[1]) / (2 * delta), rel=1e-4)
+
+
 @pytest.mark.slow
 def test_quick_shell_run_follows_the_axisymmetric_start(tmp_path):
     # The coarse shell (--quick: h = 0.2, order 2; ~150 s on a loaded 2-core machine) does not
