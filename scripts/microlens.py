@@ -196,42 +196,66 @@ class ShellResolution:
 
 @dataclass(frozen=True)
 class CapWaves:
-    """Waves of a cap's normal deflection ``w`` on the circle where its non-axisymmetric part is
-    largest (horizontal radius ``radius``): the Fourier analysis (``None`` where every circle is
-    exactly constant), and the number of bulges (outward peaks of ``w``) and dents (peaks of
-    ``-w``) there, each of at least 0.1 of ``w``'s range (``ngsgel.patterns.periodic_peaks``). A
-    pure ``cos k theta`` has ``k`` of each; a broken polygon (three dents of a four-fold
-    arrangement) shows up here, not in the dominant ``k``."""
+    """Waves of a cap's normal deflection ``w`` on the circle (about the point ``centre`` of the
+    x axis) where its non-axisymmetric part is largest (horizontal radius ``radius``): the Fourier
+    analysis (``None`` where every circle is exactly constant), and the number of bulges (outward
+    peaks of ``w``) and dents (peaks of ``-w``) there, each of at least 0.1 of ``w``'s range
+    (``ngsgel.patterns.periodic_peaks``). A pure ``cos k theta`` has ``k`` of each; a broken
+    polygon (three dents of a four-fold arrangement) shows up here, not in the dominant ``k``."""
 
     radius: float
     analysis: WaveAnalysis | None
     bulges: int
     dents: int
+    centre: float = 0.0
+
+
+def _normal_deflection(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float, half: bool):
+    """``w(x, y)``: the normal displacement ``u . (X - zc e_z)/r`` of a cap's mid-surface (sphere of
+    radius ``r`` centred at height ``zc``; ``w > 0`` away from the centre) above the point
+    ``(x, y)`` of the base plane; ``half``: the mesh is the half ``y >= 0`` of a mirror-symmetric
+    cap (``u(x, y) = u(x, -y)``)."""
+    w = ngs.InnerProduct(u, ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r)
+
+    def at(x: float, y: float) -> float:
+        return w(mesh(float(x), float(abs(y) if half else y), zc + math.sqrt(r * r - x * x - y * y), ngs.BND))
+    return at
 
 
 def cap_waves(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float, half: bool,
-              radii=np.linspace(0.1, 0.9, 9), n: int = 64) -> CapWaves:
-    """``CapWaves`` of the normal displacement ``w = u . (X - zc e_z)/r`` of a cap's mid-surface
-    (sphere of radius ``r`` centred at height ``zc``; ``w > 0`` away from the centre), sampled at
-    ``n`` angles on the circles of horizontal radii ``radii``.
-    ``half``: the mesh is the half ``y >= 0`` of a mirror-symmetric cap (``u(theta) = u(-theta)``)."""
-    w = ngs.InnerProduct(u, ngs.CF((ngs.x, ngs.y, ngs.z - zc)) / r)
+              radii=np.linspace(0.1, 0.9, 9), n: int = 64, centre: float = 0.0) -> CapWaves:
+    """``CapWaves`` of the normal displacement ``w`` (``_normal_deflection``) sampled at ``n``
+    angles on the circles of horizontal radii ``radii`` about the point ``(centre, 0)`` of the base
+    plane (the axis by default; circles that would reach past 0.95 of the base radius are left
+    out)."""
+    w = _normal_deflection(u, mesh, r=r, zc=zc, half=half)
     theta = 2.0 * np.pi * np.arange(n) / n
     best = None
     for rho in radii:
-        z = zc + math.sqrt(r * r - rho * rho)
-        ys = np.abs(rho * np.sin(theta)) if half else rho * np.sin(theta)
-        values = np.array([w(mesh(float(rho * c), float(y), z, ngs.BND)) for c, y in zip(np.cos(theta), ys)])
+        if abs(centre) + rho > 0.95:
+            continue
+        values = np.array([w(centre + rho * c, rho * s) for c, s in zip(np.cos(theta), np.sin(theta))])
         if np.ptp(values) == 0.0:  # exactly axisymmetric here (e.g. the unloaded cap): no wave
             continue
         analysis = wave_number(values, max_mode=12)
         if best is None or analysis.amplitude > best[1].amplitude:
             best = (float(rho), analysis, values)
     if best is None:
-        return CapWaves(radius=float(radii[0]), analysis=None, bulges=0, dents=0)
+        return CapWaves(radius=float(radii[0]), analysis=None, bulges=0, dents=0, centre=centre)
     rho, analysis, values = best
     return CapWaves(radius=rho, analysis=analysis, bulges=periodic_peaks(values).count,
-                    dents=periodic_peaks(-values).count)
+                    dents=periodic_peaks(-values).count, centre=centre)
+
+
+def dimple_centre(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float, half: bool,
+                  n: int = 181) -> float:
+    """x of the deepest inward deflection on the cap's x axis: the centre of the dimple a lateral
+    apex load pushes into the rear side (thesis fig. 3-5B), about which its vertices are counted;
+    0 (the axis) where no inward deflection reaches a tenth of the largest one along the axis."""
+    w = _normal_deflection(u, mesh, r=r, zc=zc, half=half)
+    xs = np.linspace(-0.9, 0.9, n)
+    values = np.array([w(x, 0.0) for x in xs])
+    return float(xs[np.argmin(values)]) if -values.min() > 0.1 * np.abs(values).max() else 0.0
 
 
 class ShellCap:
@@ -263,15 +287,22 @@ class ShellCap:
         return self.shell.volume_ratio() - 1.0
 
     def update_waves(self) -> float:
-        """Vertex count of the current state: 0 while the dominant wave's normal deflection is
-        below 0.05 t (the discretisation's own asymmetry and the growth of the critical mode just
-        before a bifurcation stay below: 0.005 t at 0.99 of the onset depth, h = 0.05)."""
-        self._waves = cap_waves(self.shell.displacement, self.mesh, r=self.case.r, zc=self.case.H - self.case.r,
-                                half=self.res.half)
+        """Vertex count of the current state, on circles about the apex (a lateral load: about the
+        dimple it pushes into the rear side, ``dimple_centre``): 0 while the dominant wave's normal
+        deflection is below 0.05 t (the discretisation's own asymmetry and the growth of the
+        critical mode just before a bifurcation stay below: 0.005 t at 0.99 of the onset depth,
+        h = 0.05)."""
+        geometry = {"r": self.case.r, "zc": self.case.H - self.case.r, "half": self.res.half}
+        centre = dimple_centre(self.shell.displacement, self.mesh, **geometry) if self.case.direction == "lateral" else 0.0
+        self._waves = cap_waves(self.shell.displacement, self.mesh, centre=centre, **geometry)
         return float(self._waves.analysis.k) if self._patterned() else 0.0
 
     def _patterned(self) -> bool:
         return self.wave_amplitude() > 0.05
+
+    def wave_centre(self) -> float:
+        """x of the centre of the last ``update_waves``' circles (0: the apex)."""
+        return self._waves.centre
 
     def wave_amplitude(self) -> float:
         """Amplitude of the dominant wave over ``t`` (of the last ``update_waves``)."""
@@ -314,7 +345,7 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
            "force": cap.force,
            "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
            "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude, "dents": cap.dents,
-           "bulges": cap.bulges}
+           "bulges": cap.bulges, "wave_centre": cap.wave_centre}
     try:
         # a step cut to 1/16 of the first has met a state Newton cannot reach: stop there (stalled)
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,

@@ -120,6 +120,30 @@ def test_cap_waves_counts_three_dents_of_a_four_fold_arrangement(half):
     assert waves.dents == 4 and waves.analysis.k == 4
 
 
+@pytest.mark.parametrize("half", [True, False])
+def test_cap_waves_counts_the_vertices_of_an_off_centre_dimple(half):
+    # The rear-side dimple of a lateral load: centred at x = -0.25 on the mirror line, three
+    # vertices (deeper lobes on the dimple's rim, one pointing along +x, the loading line). About
+    # the dimple's centre the count is 3 with the rim's radius; a deflection with no inward part
+    # (or only round-off below zero) has no dimple centre: the axis.
+    import ngsolve as ngs
+
+    case, zc, mesh, normal = _cap_with_normal(half)
+    X = ngs.x + 0.25
+    rho = ngs.sqrt(X**2 + ngs.y**2) + 1e-30
+    cos3 = (4 * X**3 - 3 * X * rho**2) / rho**3
+    dimple = -0.05 * ngs.exp(-(rho / 0.2) ** 2) - 0.02 * ngs.exp(-((rho - 0.2) / 0.07) ** 2) * (1 + cos3) / 2
+    u = ngs.GridFunction(ngs.VectorH1(mesh, order=3))
+    u.Set(dimple * normal, definedon=mesh.Boundaries(".*"))
+    centre = microlens.dimple_centre(u, mesh, r=case.r, zc=zc, half=half)
+    assert centre == pytest.approx(-0.25, abs=0.011)
+    waves = microlens.cap_waves(u, mesh, r=case.r, zc=zc, half=half, radii=np.linspace(0.05, 0.5, 10), centre=centre)
+    assert waves.centre == centre and waves.radius == pytest.approx(0.2)
+    assert waves.analysis.k == 3 and waves.dents == 3
+    u.Set(-dimple * normal, definedon=mesh.Boundaries(".*"))
+    assert microlens.dimple_centre(u, mesh, r=case.r, zc=zc, half=half) == 0.0
+
+
 def test_lateral_shell_force_is_the_derivative_of_the_energy_and_tilts_the_cap():
     # The lateral load of the half cap (mirror plane y = 0 containing the load): the reported
     # force, twice the half cap's reaction, must be dE/dd of the whole cap (twice the half's
