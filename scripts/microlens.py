@@ -295,10 +295,21 @@ class ShellCap:
         geometry = {"r": self.case.r, "zc": self.case.H - self.case.r, "half": self.res.half}
         centre = dimple_centre(self.shell.displacement, self.mesh, **geometry) if self.case.direction == "lateral" else 0.0
         self._waves = cap_waves(self.shell.displacement, self.mesh, centre=centre, **geometry)
+        return self.vertices()
+
+    def vertices(self) -> float:
+        """The vertex count of the last ``update_waves``."""
         return float(self._waves.analysis.k) if self._patterned() else 0.0
 
     def _patterned(self) -> bool:
         return self.wave_amplitude() > 0.05
+
+    def state_label(self) -> str:
+        """The current state in two lines (of the last ``update_waves``), for figure titles."""
+        case = self.case
+        depth = self.depth.Get()
+        return (f"H/R = {case.H:g}, {case.direction}, d/H = {depth / case.H:.4f} (d/R = {depth:.4f}), mu = "
+                f"{self.shell.mu.Get():.3g}\nvertices k = {self.vertices():.0f}, dents = {self.dents():.0f}")
 
     def wave_centre(self) -> float:
         """x of the centre of the last ``update_waves``' circles (0: the apex)."""
@@ -604,6 +615,8 @@ def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *,
                   "lowest_eigenvalue": settled.lowest_eigenvalue,
                   "wall_s": time.perf_counter() - clock, "stalled": path.stop_reason}
         records.append(record)
+        draw_deflection(cap, run_dir.file(f"shape_{stage.replace(' ', '_')}_snap{len(records)}.png"),
+                        title=f"after snap {len(records)}: {cap.state_label()}")
         run_dir.write_json(f"snaps_{stage.replace(' ', '_')}.json", records)  # snaps_indentation.json, ...
         if progress is not None:
             progress(f"snap to d/H {record['d_over_H']:.4f}, mu {record['mu']:.4g}: force "
@@ -632,6 +645,28 @@ def shell_summary(case: Indentation, cap: ShellCap, stages: list[tuple[str, Path
             "max_volume_change": float(np.max(np.abs(path.column("volume_change")))),
         }
     return summary
+
+
+def draw_deflection(cap: "ShellCap", filename, *, title: str) -> None:
+    """Top view of the normal deflection ``w/t`` of the whole cap (the half cap mirrored) on a polar
+    grid of the base plane, with the circle of the last vertex count (``ShellCap.update_waves``)."""
+    w = _normal_deflection(cap.shell.displacement, cap.mesh, r=cap.case.r, zc=cap.case.H - cap.case.r,
+                           half=cap.res.half)
+    radii = np.linspace(0.0, 0.98, 50)
+    theta = np.linspace(0.0, 2.0 * np.pi, 181)
+    R, T = np.meshgrid(radii, theta, indexing="ij")
+    values = np.array([[w(x, y) for x, y in zip(xs, ys)] for xs, ys in zip(R * np.cos(T), R * np.sin(T))])
+    fig, ax = plt.subplots(figsize=(5.6, 4.6))
+    image = ax.contourf(R * np.cos(T), R * np.sin(T), values / cap.case.t, 30, cmap="RdBu_r")
+    fig.colorbar(image, ax=ax, label="normal deflection w / t (inward < 0)")
+    waves = cap._waves
+    if waves.analysis is not None:
+        ax.add_patch(plt.Circle((waves.centre, 0.0), waves.radius, fill=False, ls="--", lw=0.8, color="k"))
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(filename, dpi=110)
+    plt.close(fig)
 
 
 def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> None:
@@ -700,6 +735,8 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
     draw_shell(case, stages[0][1], summary, run_dir.file("force_depth.png"))
+    cap.update_waves()
+    draw_deflection(cap, run_dir.file("shape_end.png"), title=f"end: {cap.state_label()}")
     return summary
 
 

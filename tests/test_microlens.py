@@ -179,7 +179,7 @@ def test_quick_shell_run_follows_the_axisymmetric_start(tmp_path):
     assert stage["stop_reason"] == "target" and stage["events"] == []
     assert stage["max_volume_change"] < 2e-3
     assert stage["load_drops"] == []
-    for name in ("path.csv", "summary.json", "force_depth.png", "cap.pvd", "checkpoint.npz"):
+    for name in ("path.csv", "summary.json", "force_depth.png", "shape_end.png", "cap.pvd", "checkpoint.npz"):
         assert (tmp_path / name).stat().st_size > 0
     assert Checkpoint.load(tmp_path / "checkpoint.npz").parameter == pytest.approx(0.3 * 0.3)
     # the mu-change stage from that checkpoint, at its depth: lowering mu slightly shrinks the gel,
