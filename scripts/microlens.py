@@ -297,6 +297,11 @@ class ShellCap:
         self._waves = cap_waves(self.shell.displacement, self.mesh, centre=centre, **geometry)
         return self.vertices()
 
+    @property
+    def waves(self) -> CapWaves:
+        """The wave analysis of the last ``update_waves``."""
+        return self._waves
+
     def vertices(self) -> float:
         """The vertex count of the last ``update_waves``."""
         return float(self._waves.analysis.k) if self._patterned() else 0.0
@@ -647,7 +652,7 @@ def shell_summary(case: Indentation, cap: ShellCap, stages: list[tuple[str, Path
     return summary
 
 
-def draw_deflection(cap: "ShellCap", filename, *, title: str) -> None:
+def draw_deflection(cap: ShellCap, filename, *, title: str) -> None:
     """Top view of the normal deflection ``w/t`` of the whole cap (the half cap mirrored) on a polar
     grid of the base plane, with the circle of the last vertex count (``ShellCap.update_waves``)."""
     w = _normal_deflection(cap.shell.displacement, cap.mesh, r=cap.case.r, zc=cap.case.H - cap.case.r,
@@ -659,7 +664,7 @@ def draw_deflection(cap: "ShellCap", filename, *, title: str) -> None:
     fig, ax = plt.subplots(figsize=(5.6, 4.6))
     image = ax.contourf(R * np.cos(T), R * np.sin(T), values / cap.case.t, 30, cmap="RdBu_r")
     fig.colorbar(image, ax=ax, label="normal deflection w / t (inward < 0)")
-    waves = cap._waves
+    waves = cap.waves
     if waves.analysis is not None:
         ax.add_patch(plt.Circle((waves.centre, 0.0), waves.radius, fill=False, ls="--", lw=0.8, color="k"))
     ax.set_aspect("equal")
@@ -677,7 +682,7 @@ def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> 
     ax.plot(d, f, "-", color="k", lw=1.0)
     for kk in sorted(set(k.astype(int))):
         sel = k == kk
-        ax.plot(d[sel], f[sel], "o", ms=3, label="axisymmetric" if kk == 0 else f"{kk} vertices")
+        ax.plot(d[sel], f[sel], "o", ms=3, label="axisymmetric" if kk == 0 else f"k = {kk} (dominant wave)")
     for ev in summary["indentation"]["events"]:
         ax.axvline(ev["d_over_H"] * scale, color="tab:blue", lw=0.6, ls=":")
     finish_force_figure(fig, ax, bx, path, f"shell, H/R = {case.H:g}, {case.direction}", filename, column=column)
