@@ -47,7 +47,8 @@ Method = Literal["natural", "arclength"]
 class StabilityOptions:
     """Stability monitoring of every converged state.
 
-    ``eigenvalues``: how many of the lowest to compute and record. ``locate``: find the critical
+    ``eigenvalues``: how many of the lowest to compute and record (at least every negative one
+    and the next, which the location of a change of the negative count needs). ``locate``: find the critical
     parameter of a change of the negative count to ``tol`` (load-parameter units).
     ``bifurcation_threshold``: a critical mode whose normalised projection on ``dR/dlambda`` is
     below it marks a bifurcation, otherwise a limit point. ``switch``: at a bifurcation, leave the
@@ -406,7 +407,7 @@ class _Driver:
         if self.stability is None:
             return None
         K = free_matrix(self.problem.tangent(self.problem.state), self.problem.free_mask)
-        return spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass)
+        return spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass, past_negative=True)
 
     def converged(self, iterations: int = 0) -> _Converged:
         return _Converged(self.parameter.Get(), self.problem.save_state(), self.spectrum(), iterations)

@@ -40,6 +40,7 @@ from .kinematics import Axisymmetric
 from .newton import NewtonError
 from .stability import Spectrum, free_matrix, load_rate, spectrum, state_rate
 from .stepping import ramp
+from .supports import vertex_at
 
 _DENSE_LIMIT = 8000  # unknowns of one wave number for the dense linear buckling solve
 
@@ -63,11 +64,15 @@ class HarmonicStability:
     ``axis``: the boundary on ``r = 0`` (None if the section does not touch the axis; by
     default ``"axis"`` when the mesh has it). Perturbations vanish in every component the problem
     fixes or prescribes on a boundary; ``u_theta`` also vanishes on ``theta_fixed`` (default: the
-    boundaries where the problem fixes both ``r`` and ``z``, i.e. clamped ones). Tractions are
-    dead loads and add nothing; surface energies (e.g. contact penalties) are not included.
+    boundaries where the problem fixes both ``r`` and ``z``, i.e. clamped ones). ``pins``: section
+    points (mesh vertices) held in every component, rings in 3D: the perturbations of a problem
+    whose vertex there is fixed (``ngsgel.supports.pin_vertex_component``, e.g. a hinged edge).
+    Tractions are dead loads and add nothing; surface energies (e.g. contact penalties) are not
+    included.
     """
 
-    def __init__(self, problem, *, axis: str | None = "axis", theta_fixed: str | None = None):
+    def __init__(self, problem, *, axis: str | None = "axis", theta_fixed: str | None = None,
+                 pins: Sequence[Sequence[float]] = ()):
         if not isinstance(problem.kinematics, Axisymmetric):
             raise ValueError(f"problem must use Axisymmetric kinematics, got {problem.kinematics.name!r}")
         names = set(problem.mesh.GetBoundaries())
@@ -85,6 +90,7 @@ class HarmonicStability:
             problem._check_boundary(theta_fixed)
             fixed_theta = set(_split([theta_fixed]))
         self._fixed = {"a": fixed_r - {axis}, "b": fixed_z - {axis}, "c": fixed_theta - {axis}}
+        self._pins = [vertex_at(problem.mesh, point) for point in pins]
         self._cache: dict[int, tuple] = {}
 
     # ------------------------------------------------------------------ the discrete forms
@@ -154,6 +160,8 @@ class HarmonicStability:
         mass = ngs.BilinearForm(X, symmetric=True)
         mass += weight * prob.kinematics.volume_weight() * (a * ta + b * tb + c * tc) * ngs.dx
         free = np.array(list(X.FreeDofs()), dtype=bool)
+        for vertex in self._pins:
+            free[list(X.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex)))] = False
         zero = ngs.GridFunction(X)
         self._cache[k] = (X, stiffness, mass, free, zero, weight)
         return self._cache[k]

@@ -85,18 +85,27 @@ class Spectrum:
     negative: int
 
     def crossing(self, index: int) -> tuple[float, np.ndarray]:
-        """Eigenvalue and mode number ``index`` (0 = lowest)."""
-        return float(self.eigenvalues[index]), self.modes[:, index]
+        """Eigenvalue and mode number ``index`` (0 = lowest): the one whose sign change turns
+        ``index`` negative eigenvalues into ``index + 1`` or back."""
+        missing = self.negative - int(np.count_nonzero(self.eigenvalues < 0))  # lowest ones not in the set
+        if not 0 <= index - missing < len(self.eigenvalues):
+            raise ValueError(f"eigenvalue number {index} is not in this spectrum (eigenvalues {missing} to "
+                             f"{missing + len(self.eigenvalues) - 1} of the tangent; compute it with past_negative=True)")
+        return float(self.eigenvalues[index - missing]), self.modes[:, index - missing]
 
 
 def _volume(problem) -> float:
     return problem.integrate(ngs.CF(1.0))
 
 
-def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spmatrix | None = None) -> Spectrum:
+def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spmatrix | None = None,
+             past_negative: bool = False) -> Spectrum:
     """Lowest ``count`` eigenvalues of the tangent at the current state (``K``, ``M``: free-dof
     matrices if already at hand) when it has at most ``count`` negative ones; with more, the
     ``count`` negative eigenvalues nearest zero (those that cross next), not the lowest.
+    ``past_negative``: raise ``count`` to the negative count plus one, so that the set is the
+    lowest eigenvalues up to the first non-negative one - every eigenvalue whose sign change
+    changes the negative count by one, which is what a path driver tracks.
     Shift-invert about a shift a hair below zero: the exact negative count says how many must lie
     below zero, and the shift moves down until the computed set holds ``min(negative, count)``
     of them."""
@@ -106,8 +115,8 @@ def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spm
     if M is None:
         M = free_matrix(mass_matrix(problem), free)
     n = K.shape[0]
-    count = min(count, n - 1)
     negative = negative_count(K)
+    count = min(max(count, negative + 1) if past_negative else count, n - 1)
     # A shift a hair below zero keeps K - sigma M regular at an exactly critical state.
     scale = float(np.max(np.abs(K.diagonal() / M.diagonal())))
     sigma = -1e-10 * scale

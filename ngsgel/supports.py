@@ -82,15 +82,21 @@ def pin_rigid_modes(problem, *, radius: float, center=(0.0, 0.0), tolerance: flo
 def vertex_dof(problem, *, point, component: int, tolerance: float = 1e-6) -> int:
     """Number of the dof of displacement ``component`` at the vertex at ``point`` (within
     ``tolerance``) in ``problem.space``."""
-    p = np.asarray(point, dtype=float)
-    if p.shape != (problem.mesh.dim,) or not np.all(np.isfinite(p)):
-        raise ValueError(f"point must be {problem.mesh.dim} finite coordinates, got {point!r}")
     if component not in range(problem.mesh.dim):
         raise ValueError(f"component must be in 0 .. {problem.mesh.dim - 1}, got {component!r}")
-    vertex, distance = nearest_vertex(problem.mesh, p)
+    vertex = vertex_at(problem.mesh, point, tolerance=tolerance)
+    return problem.space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[component]
+
+
+def vertex_at(mesh: ngs.Mesh, point, *, tolerance: float = 1e-6) -> int:
+    """Number of the mesh vertex at ``point`` (within ``tolerance``)."""
+    p = np.asarray(point, dtype=float)
+    if p.shape != (mesh.dim,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"point must be {mesh.dim} finite coordinates, got {point!r}")
+    vertex, distance = nearest_vertex(mesh, p)
     if distance > tolerance:
         raise ValueError(f"no mesh vertex within {tolerance:g} of {tuple(p)} (nearest at distance {distance:g})")
-    return problem.space.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))[component]
+    return vertex
 
 
 def pin_vertex_component(problem, *, point, component: int, tolerance: float = 1e-6) -> int:

@@ -66,22 +66,28 @@ from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_numbe
 from ngsgel.relaxation import settle_after  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stability import conjugate_force  # noqa: E402
+from ngsgel.supports import pin_vertex_component  # noqa: E402
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 THICKNESS_RATIO = 0.005  # t / r
 DIRECTIONS = ("inward", "outward", "lateral")
+EDGES = ("clamped", "hinged")
 AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
+BASE_MIDPOINT = (1.0, 0.0)  # (r, z) of the base's mid-surface circle in the section
 
 
 @dataclass(frozen=True)
 class Indentation:
     """``H`` apex height over base radius, ``direction`` of the apex displacement, final
-    ``depth`` in units of ``H``, ``mu`` of the bath."""
+    ``depth`` in units of ``H``, ``mu`` of the bath, support of the base ``edge``: ``clamped``
+    (the thesis's), or ``hinged`` (displacements of the base's mid-surface circle held, free to
+    rotate: the support under which a shallow cap snaps through, docs/microlens.md)."""
 
     H: float
     direction: str = "inward"
     depth: float = 1.0
     mu: float = 0.0
+    edge: str = "clamped"
 
     def __post_init__(self):
         if not (isinstance(self.H, (int, float)) and 0 < self.H <= 1):
@@ -92,6 +98,8 @@ class Indentation:
             raise ValueError(f"depth (final depth / H) must be in (0, 3], got {self.depth!r}")
         if not (isinstance(self.mu, (int, float)) and -1 <= self.mu <= 0):
             raise ValueError(f"mu must be in [-1, 0], got {self.mu!r}")
+        if self.edge not in EDGES:
+            raise ValueError(f"edge must be one of {EDGES}, got {self.edge!r}")
 
     @property
     def r(self) -> float:
@@ -145,6 +153,9 @@ class AxisymmetricCap:
         if case.direction not in AXISYMMETRIC_DIRECTIONS:
             raise ValueError(f"direction must be one of {AXISYMMETRIC_DIRECTIONS} for the axisymmetric model "
                              f"(a lateral load needs --model shell), got {case.direction!r}")
+        if case.edge == "hinged" and res.layers % 2:
+            raise ValueError(f"a hinged edge needs an even number of layers (a vertex on the mid-surface), "
+                             f"got layers = {res.layers}")
         self.case = case
         self.lam0 = GEL.lam_free(case.mu)
         self.force_scale = GEL.youngs_modulus(self.lam0) * case.t**2
@@ -155,10 +166,16 @@ class AxisymmetricCap:
         self.depth = ngs.Parameter(0.0)
         self.problem = EquilibriumProblem(self.mesh, kinematics=Axisymmetric(), materials=GEL, lam0=self.lam0,
                                           mu=case.mu, order=res.order)
-        self.problem.fix("base")
         self.problem.fix("axis", "r")
         self.problem.prescribe("apex", "z", case.sign * self.depth)
-        self.harmonic = HarmonicStability(self.problem)
+        if case.edge == "clamped":
+            self.problem.fix("base")
+            pins = []
+        else:
+            pins = [BASE_MIDPOINT]
+            for component in (0, 1):
+                pin_vertex_component(self.problem, point=BASE_MIDPOINT, component=component)
+        self.harmonic = HarmonicStability(self.problem, pins=pins)
 
     def force(self) -> float:
         """``F/(E0 t^2)``: ``dE/d(depth)``, positive when the cap resists the prescribed motion."""
@@ -260,7 +277,7 @@ def dimple_centre(u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: f
 
 class ShellCap:
     """The cap as a ``GelShell`` under a prescribed apex displacement ``sign * depth`` along
-    ``case.component`` (the apex patch moves rigidly), base clamped."""
+    ``case.component`` (the apex patch moves rigidly), base clamped or hinged (``case.edge``)."""
 
     def __init__(self, case: Indentation, res: ShellResolution):
         self.case, self.res = case, res
@@ -271,7 +288,10 @@ class ShellCap:
         self.mesh = bundle.mesh
         self.shell = GelShell(self.mesh, material=GEL, lam0=self.lam0, thickness=case.t, mu=case.mu,
                               order=res.order, realcompile=res.realcompile)
-        self.shell.clamp("base")
+        if case.edge == "clamped":
+            self.shell.clamp("base")
+        else:
+            self.shell.simply_support("base")
         if res.half:
             self.shell.symmetry("sym", normal="y")
         self.depth = ngs.Parameter(0.0)
@@ -751,6 +771,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--direction", default="inward", choices=DIRECTIONS)
     parser.add_argument("--depth", type=float, default=1.0, help="final depth / H")
     parser.add_argument("--mu", type=float, default=0.0, help="chemical potential of the bath")
+    parser.add_argument("--edge", default="clamped", choices=EDGES,
+                        help="support of the base: clamped (the thesis's) or hinged at its mid-surface")
     parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric", "shell"))
     parser.add_argument("--maxh", type=float, default=None,
                         help="cell length along the section (axisymmetric, default 0.01) or element size of the "
@@ -778,7 +800,7 @@ def main(argv=None) -> dict:
     if args.model == "shell":
         return main_shell(args, quick)
     case = Indentation(H=0.3 if quick else args.H, direction=args.direction, depth=0.6 if quick else args.depth,
-                       mu=args.mu)
+                       mu=args.mu, edge=args.edge)
     res = (SectionResolution(maxh=0.04, layers=2, order=2, apex=args.apex) if quick else
            SectionResolution(maxh=args.maxh or 0.01, layers=args.layers, order=args.order, apex=args.apex))
     if not (isinstance(args.kmax, int) and 2 <= args.kmax <= 40):
@@ -800,7 +822,8 @@ def main(argv=None) -> dict:
 def main_shell(args, quick: bool) -> dict:
     """``--model shell``; ``--quick``: a coarse half cap (h = 0.2, order 2) to d/H = 0.3, which
     exercises the run but does not resolve the ridge where the first polygon forms."""
-    case = Indentation(H=args.H, direction=args.direction, depth=0.3 if quick else args.depth, mu=args.mu)
+    case = Indentation(H=args.H, direction=args.direction, depth=0.3 if quick else args.depth, mu=args.mu,
+                       edge=args.edge)
     res = ShellResolution(maxh=0.2 if quick else (args.maxh or 0.05), apex_maxh=0.05 if quick else args.apex_maxh,
                           order=2 if quick else args.order, apex=args.apex, half=not args.full,
                           realcompile=not quick)

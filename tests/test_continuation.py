@@ -332,3 +332,22 @@ def test_a_change_whose_location_fails_is_reported_unlocated_and_the_path_goes_o
     marked = [p for p in result.points if p.events]
     assert len(marked) == 1 and marked[0].negative == 1 and marked[0].parameter == event.parameter
     assert abs(tip()) < 1e-8  # not switched: still the straight (now unstable) branch
+
+
+def test_second_crossing_is_located_when_one_eigenvalue_is_recorded():
+    """A path past the first critical load (no switch) meets the second one: the crossing
+    eigenvalue is then the second lowest, which a one-eigenvalue record does not hold at the
+    state before it; the driver's spectra cover every negative eigenvalue and the next one."""
+    prob, load, _ = column(10)
+    result = follow_path(prob, load, step=0.5, max_step=2.0, target=10.0,
+                         stability=StabilityOptions(eigenvalues=1, tol=1e-4, switch=False), max_steps=60)
+    bifurcations = [e for e in result.events if e.kind == "bifurcation"]
+    assert [(e.negative_before, e.negative_after) for e in bifurcations] == [(0, 1), (1, 2)]
+    fresh, fresh_load, _ = column(10)
+    fresh.solve()
+    buckling = linear_buckling(fresh, fresh_load, increment=1.0, count=2)
+    for event, linear in zip(bifurcations, buckling.parameters):
+        # they differ only by the pre-buckling shortening (~1e-4 at the first, ~1e-3 at the second)
+        assert event.parameter == pytest.approx(linear, rel=5e-3)
+    assert all(p.negative == (p.parameter > bifurcations[0].parameter) + (p.parameter > bifurcations[1].parameter)
+               for p in result.points if not p.events)

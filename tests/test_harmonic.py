@@ -182,3 +182,21 @@ def test_linear_buckling_of_the_unloaded_gel_rod_is_timoshenkos_column():
     assert lam1 / L == pytest.approx(timoshenko, rel=3e-3)
     for k in (2, 3):
         assert hs.linear_buckling(k, rate)[0] > 20 * lam1
+
+
+def test_a_pinned_vertex_removes_the_rigid_modes_of_its_ring():
+    # the free cylinder's rigid turn (k = 0) and sideways shift (k = 1) are zero modes; a ring
+    # held at the base's outer edge (every component of the perturbation zero there) removes both
+    prob = free_graded_cylinder()
+    plain = HarmonicStability(prob, axis="left")
+    pinned = HarmonicStability(prob, axis="left", pins=[(0.5, 0.0)])
+    for k in (0, 1):
+        assert pinned.rigid_modes(k).shape[1] == 0
+        free_plain, free_pinned = plain.matrices(k)[2], pinned.matrices(k)[2]
+        assert free_plain.sum() - free_pinned.sum() == 2  # r and theta of the vertex (z is held on the base)
+        without, held = plain.spectrum(k, count=5), pinned.spectrum(k, count=2)
+        assert abs(without.eigenvalues[0]) < 1e-10 * without.eigenvalues[1]
+        # three constraints: the lowest eigenvalue rises from the rigid zero to at most the fourth
+        assert held.negative == 0 and 1e-3 * without.eigenvalues[1] < held.eigenvalues[0] <= without.eigenvalues[3]
+    with pytest.raises(ValueError, match="no mesh vertex"):
+        HarmonicStability(prob, axis="left", pins=[(0.25, 0.013)])

@@ -43,6 +43,10 @@ def test_bad_input_is_rejected():
             microlens.Indentation(**kwargs)
     with pytest.raises(ValueError, match="maxh"):
         microlens.SectionResolution(maxh=0.0)
+    with pytest.raises(ValueError, match="edge"):
+        microlens.Indentation(H=0.3, edge="glued")
+    with pytest.raises(ValueError, match="even number of layers"):  # no vertex on the mid-surface
+        microlens.AxisymmetricCap(microlens.Indentation(H=0.3, edge="hinged"), microlens.SectionResolution(layers=1))
     with pytest.raises(ValueError, match="lateral load needs --model shell"):  # before any meshing
         microlens.AxisymmetricCap(microlens.Indentation(H=0.3, direction="lateral"), microlens.SectionResolution())
     for kwargs, name in (({"maxh": 0.0}, "maxh"), ({"apex_maxh": 0.1, "maxh": 0.05}, "apex_maxh"),
@@ -211,3 +215,21 @@ def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
     assert summary["fit"]["C"] > 0 and summary["fit"]["misfit"] < 0.15
     for name in ("path.csv", "summary.json", "force_depth.png"):
         assert (tmp_path / name).stat().st_size > 0
+
+
+@pytest.mark.parametrize("edge", ["hinged", "clamped"])
+def test_shallow_cap_snaps_axisymmetrically_only_when_its_edge_is_hinged(edge, tmp_path):
+    # H = 0.1R (lambda = 4.87), coarse section. Hinged: a force maximum (a snap under force control)
+    # at d/H 1.345-1.367 on the fine section (h = 0.02, order 3; coarse 1.353), before any
+    # non-axisymmetric instability (k = 1 at 1.41); the force then falls to zero at d/H 1.73.
+    # Clamped: the force rises monotonically (Fitch: no axisymmetric snap this shallow).
+    case = microlens.Indentation(H=0.1, depth=1.45, edge=edge)
+    summary = microlens.run(case, microlens.SectionResolution(maxh=0.05, order=2), str(tmp_path), kmax=1,
+                            step=0.02, max_step=0.1, fit_depth=0.3)
+    assert summary["events"] == [] and summary["snaps"] == []
+    if edge == "clamped":
+        assert summary["force_maxima"] == [] and summary["first_nonaxisymmetric"] is None
+    else:
+        (maximum,) = summary["force_maxima"]
+        assert 1.3 < maximum["d_over_H"] < 1.4
+        assert summary["first_nonaxisymmetric"]["d_over_H"] > maximum["d_over_H"]
