@@ -220,11 +220,11 @@ def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
 @pytest.mark.parametrize("edge", ["hinged", "clamped"])
 def test_shallow_cap_snaps_axisymmetrically_only_when_its_edge_is_hinged(edge, tmp_path):
     # H = 0.1R (lambda = 4.87), coarse section. Hinged: a force maximum (a snap under force control)
-    # at d/H 1.345-1.367 on the fine section (h = 0.02, order 3; coarse 1.353), before any
+    # at d/H 1.345-1.367 on the fine section (h = 0.02, order 3; this one, h = 0.1 order 2: 1.368), before any
     # non-axisymmetric instability (k = 1 at 1.41); the force then falls to zero at d/H 1.73.
     # Clamped: the force rises monotonically (Fitch: no axisymmetric snap this shallow).
     case = microlens.Indentation(H=0.1, depth=1.45, edge=edge)
-    summary = microlens.run(case, microlens.SectionResolution(maxh=0.05, order=2), str(tmp_path), kmax=1,
+    summary = microlens.run(case, microlens.SectionResolution(maxh=0.1, order=2), str(tmp_path), kmax=1,
                             step=0.02, max_step=0.1, fit_depth=0.3)
     assert summary["events"] == [] and summary["snaps"] == []
     if edge == "clamped":
