@@ -3,9 +3,10 @@ the clamped cap with every event, the vertex count along it, the gel volume chan
 of the thesis.
 
 The cap (base radius ``R = 1``, apex height ``H``, mid-surface radius ``r = (R^2 + H^2)/(2H)``,
-thickness ``t = 0.005 r``, ``Nv = 1e-3``, ``chi = 0.5``, ``mu = 0``, base clamped) is pushed at
-its apex under displacement control (an apex patch of radius ``--apex`` carries the prescribed
-displacement, the stand-in for the thesis's concentrated displacement). The path is followed by
+thickness ``t = 0.005 r``, ``Nv = 1e-3``, ``chi = 0.5``, ``mu = 0``, base clamped, or with
+``--edge hinged`` held on its mid-surface circle and free to rotate) is pushed at its apex under
+displacement control (an apex patch of radius ``--apex`` carries the prescribed displacement, the
+stand-in for the thesis's concentrated displacement). The path is followed by
 pseudo-arclength, so limit points in depth (snap-through under displacement control) are passed
 and the jump at fixed depth is measured on the path itself. Force ``F`` is the reaction
 work-conjugate to the depth (``ngsgel.stability.conjugate_force``), reported as ``F/(E0 t^2)``
