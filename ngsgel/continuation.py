@@ -168,6 +168,11 @@ class PathResult:
         return np.array([p.qoi[name] for p in self.points])
 
 
+class LocationError(RuntimeError):
+    """A change of the negative count that cannot be bracketed to one crossing: more than one
+    eigenvalue changes sign inside the step, or the secant does not close the bracket."""
+
+
 class ContinuationError(RuntimeError):
     """The step fell below ``min_step``; ``result`` holds the path up to the last converged state
     (which the problem holds)."""
@@ -472,7 +477,7 @@ class _Driver:
             return unlocated({})
         try:
             critical, error = self._locate(a, b, segment)
-        except NewtonError as err:  # reported at the end of the step, which did converge
+        except (NewtonError, LocationError) as err:  # reported at the end of the step, which did converge
             return unlocated({"locate_failed": str(err)})
         index = min(before, after)
         eigenvalue, phi = critical.spectrum.crossing(index)
@@ -519,6 +524,10 @@ class _Driver:
             s = min(max(s, lo[0] + 0.05 * width), hi[0] - 0.05 * width)
             segment(s)
             point = self.converged()
+            if point.spectrum.negative not in (a.spectrum.negative, b.spectrum.negative):
+                raise LocationError(f"{point.spectrum.negative} negative eigenvalues at parameter {point.parameter:g}, "
+                                    f"between {a.spectrum.negative} and {b.spectrum.negative} at the ends of the "
+                                    f"step: more than one eigenvalue changes sign in it")
             new = (s, point.spectrum.crossing(index)[0], point.parameter)
             spread = max(lo[2], hi[2], new[2]) - min(lo[2], hi[2], new[2])
             if point.spectrum.negative == a.spectrum.negative:
@@ -529,8 +538,8 @@ class _Driver:
                 kept = "lo"
             if spread <= self.stability.tol:
                 return point, spread
-        raise RuntimeError(f"critical point between parameters {a.parameter:g} and {b.parameter:g} not "
-                           f"located to {self.stability.tol:g} in {self.stability.max_locate_iterations} iterations")
+        raise LocationError(f"critical point between parameters {a.parameter:g} and {b.parameter:g} not "
+                            f"located to {self.stability.tol:g} in {self.stability.max_locate_iterations} iterations")
 
     def branch_switch(self, a: _Converged, critical: _Converged, converge: Callable[[np.ndarray, float, np.ndarray, float], NewtonResult]) -> _Converged:
         """Leave ``critical`` along ``+-`` its mode; keep the candidate with fewer negative

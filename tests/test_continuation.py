@@ -351,3 +351,36 @@ def test_second_crossing_is_located_when_one_eigenvalue_is_recorded():
         assert event.parameter == pytest.approx(linear, rel=5e-3)
     assert all(p.negative == (p.parameter > bifurcations[0].parameter) + (p.parameter > bifurcations[1].parameter)
                for p in result.points if not p.events)
+
+
+def test_a_step_with_more_than_one_crossing_is_reported_unlocated(monkeypatch):
+    # a state inside the step whose negative count is neither end's (two eigenvalues changed
+    # sign in the step) cannot be bracketed: the change is reported, not a crash
+    from ngsgel import continuation
+    from ngsgel.stability import Spectrum
+
+    locate, converged = continuation._Driver._locate, continuation._Driver.converged
+
+    def locating(self, a, b, segment):
+        self.locating = True
+        try:
+            return locate(self, a, b, segment)
+        finally:
+            self.locating = False
+
+    def converged_with_two_negatives_inside(self, iterations=0):
+        point = converged(self, iterations)
+        if getattr(self, "locating", False):
+            point.spectrum = Spectrum(eigenvalues=np.array([-2.0, -1.0]), modes=np.zeros((len(point.state), 2)),
+                                      negative=2)
+        return point
+
+    monkeypatch.setattr(continuation._Driver, "_locate", locating)
+    monkeypatch.setattr(continuation._Driver, "converged", converged_with_two_negatives_inside)
+    prob, load, _ = column(12, control="displacement")
+    result = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3,
+                         stability=StabilityOptions(eigenvalues=2, switch=True))
+    assert result.stop_reason == "target"
+    (event,) = result.events
+    assert event.kind == "stability change" and "more than one eigenvalue" in event.details["locate_failed"]
+    assert (event.negative_before, event.negative_after) == (0, 1)
