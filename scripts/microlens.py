@@ -73,7 +73,9 @@ GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 THICKNESS_RATIO = 0.005  # t / r
 DIRECTIONS = ("inward", "outward", "lateral")
 EDGES = ("clamped", "hinged")
+INDENTERS = ("sliding", "bonded")
 AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
+_SHELL_COMPONENTS = ("x", "y", "z")
 BASE_MIDPOINT = (1.0, 0.0)  # (r, z) of the base's mid-surface circle in the section
 
 
@@ -82,13 +84,16 @@ class Indentation:
     """``H`` apex height over base radius, ``direction`` of the apex displacement, final
     ``depth`` in units of ``H``, ``mu`` of the bath, support of the base ``edge``: ``clamped``
     (the thesis's), or ``hinged`` (displacements of the base's mid-surface circle held, free to
-    rotate: the support under which a shallow cap snaps through, docs/microlens.md)."""
+    rotate: the support under which a shallow cap snaps through, docs/microlens.md), and the
+    ``indenter`` on the apex patch: ``sliding`` (only the loaded component prescribed: a
+    frictionless flat punch) or ``bonded`` (the other components held too: a sticking punch)."""
 
     H: float
     direction: str = "inward"
     depth: float = 1.0
     mu: float = 0.0
     edge: str = "clamped"
+    indenter: str = "sliding"
 
     def __post_init__(self):
         if not (isinstance(self.H, (int, float)) and 0 < self.H <= 1):
@@ -101,6 +106,8 @@ class Indentation:
             raise ValueError(f"mu must be in [-1, 0], got {self.mu!r}")
         if self.edge not in EDGES:
             raise ValueError(f"edge must be one of {EDGES}, got {self.edge!r}")
+        if self.indenter not in INDENTERS:
+            raise ValueError(f"indenter must be one of {INDENTERS}, got {self.indenter!r}")
 
     @property
     def r(self) -> float:
@@ -169,6 +176,8 @@ class AxisymmetricCap:
                                           mu=case.mu, order=res.order)
         self.problem.fix("axis", "r")
         self.problem.prescribe("apex", "z", case.sign * self.depth)
+        if case.indenter == "bonded":
+            self.problem.fix("apex", "r")
         if case.edge == "clamped":
             self.problem.fix("base")
             pins = []
@@ -297,6 +306,10 @@ class ShellCap:
             self.shell.symmetry("sym", normal="y")
         self.depth = ngs.Parameter(0.0)
         self.shell.prescribe_region("apex", case.component, case.sign * self.depth)
+        if case.indenter == "bonded":
+            for component in _SHELL_COMPONENTS:
+                if component != case.component:
+                    self.shell.prescribe_region("apex", component, 0.0)
         self._waves = CapWaves(radius=0.0, analysis=None, bulges=0, dents=0)
 
     def force(self) -> float:
@@ -774,6 +787,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--mu", type=float, default=0.0, help="chemical potential of the bath")
     parser.add_argument("--edge", default="clamped", choices=EDGES,
                         help="support of the base: clamped (the thesis's) or hinged at its mid-surface")
+    parser.add_argument("--indenter", default="sliding", choices=INDENTERS,
+                        help="apex patch: sliding (only the loaded component prescribed) or bonded (all held)")
     parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric", "shell"))
     parser.add_argument("--maxh", type=float, default=None,
                         help="cell length along the section (axisymmetric, default 0.01) or element size of the "
@@ -801,7 +816,7 @@ def main(argv=None) -> dict:
     if args.model == "shell":
         return main_shell(args, quick)
     case = Indentation(H=0.3 if quick else args.H, direction=args.direction, depth=0.6 if quick else args.depth,
-                       mu=args.mu, edge=args.edge)
+                       mu=args.mu, edge=args.edge, indenter=args.indenter)
     res = (SectionResolution(maxh=0.04, layers=2, order=2, apex=args.apex) if quick else
            SectionResolution(maxh=args.maxh or 0.01, layers=args.layers, order=args.order, apex=args.apex))
     if not (isinstance(args.kmax, int) and 2 <= args.kmax <= 40):
@@ -824,7 +839,7 @@ def main_shell(args, quick: bool) -> dict:
     """``--model shell``; ``--quick``: a coarse half cap (h = 0.2, order 2) to d/H = 0.3, which
     exercises the run but does not resolve the ridge where the first polygon forms."""
     case = Indentation(H=args.H, direction=args.direction, depth=0.3 if quick else args.depth, mu=args.mu,
-                       edge=args.edge)
+                       edge=args.edge, indenter=args.indenter)
     res = ShellResolution(maxh=0.2 if quick else (args.maxh or 0.05), apex_maxh=0.05 if quick else args.apex_maxh,
                           order=2 if quick else args.order, apex=args.apex, half=not args.full,
                           realcompile=not quick)
