@@ -524,13 +524,14 @@ class _Driver:
             s = min(max(s, lo[0] + 0.05 * width), hi[0] - 0.05 * width)
             segment(s)
             point = self.converged()
-            if point.spectrum.negative not in (a.spectrum.negative, b.spectrum.negative):
+            if point.spectrum.negative < index:  # fewer than at either end: the tracked one is not alone
                 raise LocationError(f"{point.spectrum.negative} negative eigenvalues at parameter {point.parameter:g}, "
-                                    f"between {a.spectrum.negative} and {b.spectrum.negative} at the ends of the "
-                                    f"step: more than one eigenvalue changes sign in it")
+                                    f"fewer than the {a.spectrum.negative} and {b.spectrum.negative} at the ends of "
+                                    f"the step: more than one eigenvalue changes sign in it")
             new = (s, point.spectrum.crossing(index)[0], point.parameter)
             spread = max(lo[2], hi[2], new[2]) - min(lo[2], hi[2], new[2])
-            if point.spectrum.negative == a.spectrum.negative:
+            # the side of the bracket is the sign of the tracked eigenvalue (number ``index``)
+            if (point.spectrum.negative > index) == (a.spectrum.negative > index):
                 lo, hi = new, (hi if kept != "hi" else (hi[0], hi[1] / 2, hi[2]))
                 kept = "hi"
             else:

@@ -354,33 +354,34 @@ def test_second_crossing_is_located_when_one_eigenvalue_is_recorded():
 
 
 def test_a_step_with_more_than_one_crossing_is_reported_unlocated(monkeypatch):
-    # a state inside the step whose negative count is neither end's (two eigenvalues changed
-    # sign in the step) cannot be bracketed: the change is reported, not a crash
+    # past the first critical load the path meets the second (1 -> 2 negatives); a state inside
+    # that step with no negative eigenvalue at all (two eigenvalues changed sign in the step)
+    # cannot be bracketed: the change is reported unlocated, not a crash
     from ngsgel import continuation
     from ngsgel.stability import Spectrum
 
     locate, converged = continuation._Driver._locate, continuation._Driver.converged
 
     def locating(self, a, b, segment):
-        self.locating = True
+        self.second_crossing = a.spectrum.negative == 1
         try:
             return locate(self, a, b, segment)
         finally:
-            self.locating = False
+            self.second_crossing = False
 
-    def converged_with_two_negatives_inside(self, iterations=0):
+    def converged_with_none_negative_inside(self, iterations=0):
         point = converged(self, iterations)
-        if getattr(self, "locating", False):
-            point.spectrum = Spectrum(eigenvalues=np.array([-2.0, -1.0]), modes=np.zeros((len(point.state), 2)),
-                                      negative=2)
+        if getattr(self, "second_crossing", False):
+            point.spectrum = Spectrum(eigenvalues=np.array([1.0]), modes=np.zeros((len(point.state), 1)), negative=0)
         return point
 
     monkeypatch.setattr(continuation._Driver, "_locate", locating)
-    monkeypatch.setattr(continuation._Driver, "converged", converged_with_two_negatives_inside)
-    prob, load, _ = column(12, control="displacement")
-    result = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3,
-                         stability=StabilityOptions(eigenvalues=2, switch=True))
+    monkeypatch.setattr(continuation._Driver, "converged", converged_with_none_negative_inside)
+    prob, load, _ = column(10)
+    result = follow_path(prob, load, step=0.5, max_step=2.0, target=10.0,
+                         stability=StabilityOptions(eigenvalues=1, tol=1e-4, switch=False), max_steps=60)
     assert result.stop_reason == "target"
-    (event,) = result.events
-    assert event.kind == "stability change" and "more than one eigenvalue" in event.details["locate_failed"]
-    assert (event.negative_before, event.negative_after) == (0, 1)
+    first, second = result.events
+    assert first.kind == "bifurcation" and (first.negative_before, first.negative_after) == (0, 1)
+    assert second.kind == "stability change" and "more than one eigenvalue" in second.details["locate_failed"]
+    assert (second.negative_before, second.negative_after) == (1, 2)
