@@ -75,7 +75,6 @@ DIRECTIONS = ("inward", "outward", "lateral")
 EDGES = ("clamped", "hinged")
 INDENTERS = ("sliding", "bonded")
 AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
-_SHELL_COMPONENTS = ("x", "y", "z")
 BASE_MIDPOINT = (1.0, 0.0)  # (r, z) of the base's mid-surface circle in the section
 
 
@@ -307,9 +306,8 @@ class ShellCap:
         self.depth = ngs.Parameter(0.0)
         self.shell.prescribe_region("apex", case.component, case.sign * self.depth)
         if case.indenter == "bonded":
-            for component in _SHELL_COMPONENTS:
-                if component != case.component:
-                    self.shell.prescribe_region("apex", component, 0.0)
+            for component in sorted({"x", "y", "z"} - {case.component}):
+                self.shell.prescribe_region("apex", component, 0.0)
         self._waves = CapWaves(radius=0.0, analysis=None, bulges=0, dents=0)
 
     def force(self) -> float:
