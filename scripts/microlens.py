@@ -19,7 +19,10 @@ Models (``--model``):
   first negative eigenvalue is bisected to the depth where the cap leaves the axisymmetric path
   and its ``k`` (the number of vertices of the first polygonal state). Past that depth the
   section follows the axisymmetric branch, now unstable: the ``k`` that are unstable there are
-  recorded but are not the post-buckled vertex counts.
+  recorded but are not the post-buckled vertex counts. ``--mu-at DEPTH --mu-to MU`` then
+  changes ``mu`` at that depth with the indenter holding the depth or (``--hold force``) the
+  force, and records which ``k`` are unstable at each ``mu`` (``mu_change.csv``): where the
+  axisymmetric state is stable again, a polygonal state has no reason to stay.
 - ``shell``: ``ngsgel.shell.GelShell`` on the cap's mid-surface (by default the half cap
   ``y >= 0`` with mirror symmetry, which carries every ``cos k theta`` pattern and the lateral
   load along x). The depth is stepped by natural-parameter continuation (displacement control,
@@ -43,6 +46,7 @@ Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructe
     python scripts/microlens.py --out results/microlens --H 0.1 --depth 1.0 [--quick]
     python scripts/microlens.py --out results/microlens_out --H 0.2 --direction outward --depth 1.0
     python scripts/microlens.py --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
+    python scripts/microlens.py --out results/microlens_mu --maxh 0.02 --kmax 12 --mu-at 0.859 --mu-to=1.5e-4
 """
 
 from __future__ import annotations
@@ -56,10 +60,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from scipy import optimize  # noqa: E402
 import ngsolve as ngs  # noqa: E402
 
 from geometries import cap_midsurface, cap_section  # noqa: E402
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path  # noqa: E402
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, NewtonError, follow_path  # noqa: E402
 from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions  # noqa: E402
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
@@ -75,6 +80,7 @@ DIRECTIONS = ("inward", "outward", "lateral")
 EDGES = ("clamped", "hinged")
 INDENTERS = ("sliding", "bonded")
 AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
+MU_HOLDS = ("depth", "force")  # what the indenter keeps while mu changes (axisymmetric model)
 BASE_MIDPOINT = (1.0, 0.0)  # (r, z) of the base's mid-surface circle in the section
 
 
@@ -430,16 +436,18 @@ class HarmonicMonitor:
         return float(sum(v < 0 for v in self.lowest.values()))
 
 
-def follow_axisymmetric(cap: AxisymmetricCap, *, kmax: int, step: float, max_step: float, history=None,
-                        vtk=None, progress=None) -> PathResult:
-    """The axisymmetric path to the final depth by arclength, with the exact axisymmetric stability
-    (limit points, axisymmetric bifurcations) and the harmonic scan at every state."""
+def follow_axisymmetric(cap: AxisymmetricCap, *, kmax: int, step: float, max_step: float,
+                        target: float | None = None, history=None, vtk=None, progress=None) -> PathResult:
+    """The axisymmetric path to the depth ``target`` (default: the case's final depth) by
+    arclength, with the exact axisymmetric stability (limit points, axisymmetric bifurcations)
+    and the harmonic scan at every state."""
     monitor = HarmonicMonitor(cap, kmax)
     qoi = {"d_over_H": lambda: cap.depth.Get() / cap.case.H, "force": cap.force,
            "volume_change": cap.volume_change, "lowest_nonaxisymmetric": monitor.update,
            "k_lowest": monitor.critical_k, "unstable_k_count": monitor.unstable_count}
     return follow_path(cap.problem, cap.depth, method="arclength", step=step, max_step=max_step,
-                       min_step=step * 1e-4, target=cap.case.depth * cap.case.H, max_steps=400, qoi=qoi,
+                       min_step=step * 1e-4, target=cap.case.depth * cap.case.H if target is None else target,
+                       max_steps=400, qoi=qoi,
                        stability=StabilityOptions(eigenvalues=1, locate=True, tol=1e-5 * cap.case.H),
                        keep_states=True, history=history, vtk=vtk, progress=progress)
 
@@ -576,16 +584,51 @@ def draw(case: Indentation, path: PathResult, summary: dict, filename) -> None:
     finish_force_figure(fig, ax, bx, path, f"H/R = {case.H:g}, {case.direction}", filename)
 
 
+def draw_mu_change(case: Indentation, change: dict, filename) -> None:
+    """Lowest eigenvalue of each wave number and the force against ``mu`` at the held depth or force."""
+    rows = change["rows"]
+    mu = np.array([row["mu"] for row in rows])
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
+    ks = sorted(int(name[len("lowest_k"):]) for name in rows[0] if name.startswith("lowest_k"))
+    for k in ks:
+        ax.plot(mu, [row[f"lowest_k{k}"] for row in rows], "-", lw=1, label=f"k = {k}")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("mu")
+    ax.set_ylabel("lowest eigenvalue")
+    ax.set_yscale("symlog", linthresh=1e-6)
+    ax.legend(fontsize=7, ncol=2)
+    bx.plot(mu, [row["force"] for row in rows], "-", color="k")
+    bx.set_ylabel("F/(E0 t^2)")
+    bx.ticklabel_format(axis="y", useOffset=False)
+    dx = bx.twinx()
+    dx.plot(mu, [row["d_over_H"] for row in rows], "--", color="tab:blue")
+    dx.set_ylabel("d/H (dashed)", color="tab:blue")
+    for axis in (ax, bx):
+        axis.set_xlabel("mu")
+        axis.ticklabel_format(axis="x", style="sci", scilimits=(-3, 3))
+    fig.suptitle(f"H/R = {case.H:g}, mu changed at d/H = {change['d_over_H']:g}, {change['hold']} held")
+    fig.tight_layout()
+    fig.savefig(filename, dpi=130)
+    plt.close(fig)
+
+
 def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, step: float = 0.01,
-        max_step: float = 0.04, fit_depth: float = 0.1, progress=None) -> dict:
-    """One indentation on the axisymmetric model; ``step``/``max_step`` in units of ``H``."""
+        max_step: float = 0.04, fit_depth: float = 0.1, mu_at: float | None = None, mu_to: float | None = None,
+        mu_steps: int = 10, hold: str = "depth", progress=None) -> dict:
+    """One indentation on the axisymmetric model; ``step``/``max_step`` in units of ``H``. With
+    ``mu_at`` (depth / H) the indentation stops there and ``mu`` goes to ``mu_to`` in
+    ``mu_steps`` steps with the apex ``hold`` (``change_mu_axisymmetric``; ``mu_change.csv``)."""
+    check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, hold=hold)
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "kmax": kmax,
-                                        "model": "axisymmetric", "t_over_r": THICKNESS_RATIO})
+                                        "model": "axisymmetric", "t_over_r": THICKNESS_RATIO, "mu_at": mu_at,
+                                        "mu_to": mu_to, "mu_steps": mu_steps, "hold": hold})
     cap = AxisymmetricCap(case, res)
+    target = case.depth if mu_at is None else mu_at
     with History(run_dir.file("path.csv")) as history:
         path = follow_axisymmetric(cap, kmax=kmax, step=step * case.H, max_step=max_step * case.H,
-                                   history=history, vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap")),
+                                   target=target * case.H, history=history,
+                                   vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap")),
                                    progress=progress)
     summary = {
         "ndof": cap.problem.space.ndof, "t": case.t, "r": case.r,
@@ -598,6 +641,18 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
     }
     summary["first_nonaxisymmetric"] = first_nonaxisymmetric(cap, path, kmax=kmax)
     summary["negative_nonaxisymmetric_anywhere"] = bool(np.any(path.column("lowest_nonaxisymmetric") < 0))
+    if mu_to is not None and path.stop_reason == "target":
+        end = path.points[-1]  # the bisection above moved the state: back to the path's end
+        cap.problem.restore_state(end.state)
+        cap.depth.Set(end.parameter)
+        cap.problem.solve()
+        with History(run_dir.file("mu_change.csv")) as history:
+            rows, stop = change_mu_axisymmetric(cap, mu_to, steps=mu_steps, kmax=kmax, hold=hold, history=history,
+                                                vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap_mu")),
+                                                progress=progress)
+        summary["mu_change"] = {"hold": hold, "d_over_H": mu_at, "rows": rows, "stop_reason": stop,
+                                "axisymmetric_stable": [row["mu"] for row in rows if not row["unstable_k"]]}
+        draw_mu_change(case, summary["mu_change"], run_dir.file("mu_change.png"))
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
     draw(case, path, summary, run_dir.file("force_depth.png"))
@@ -720,17 +775,9 @@ def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> 
     finish_force_figure(fig, ax, bx, path, f"shell, H/R = {case.H:g}, {case.direction}", filename, column=column)
 
 
-def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
-              mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
-              snaps: int = 3, snap_tau: float | None = None, progress=None) -> dict:
-    """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
-    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth
-    (``mu_at`` omitted with ``restart``: at the checkpoint's depth). ``mu_to`` may lie above the
-    bath's 0 up to the gel's ``mu_max`` (a slight swelling, as in the thesis's fig. 3-3B).
-    Where the path stalls, the cap snaps at the next depth (at most ``snaps`` times, first
-    pseudo-time step ``snap_tau``; see ``follow_through_snaps``).
-    Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
-    ``restart`` (such a file of the indentation) goes on from it."""
+def check_mu_change(case: Indentation, *, mu_at: float | None, mu_to: float | None, mu_steps: int,
+                    restart: str | None = None, hold: str = "depth") -> None:
+    """Bad input of the ``mu`` change at a depth (``--mu-at``/``--mu-to``), before any meshing."""
     if mu_at is not None and mu_to is None:
         raise ValueError("mu_at needs mu_to (the depth / H where mu changes, and its new value)")
     if mu_to is not None and mu_at is None and restart is None:
@@ -746,6 +793,175 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
             raise ValueError(f"mu_to = {mu_to!r}: {error}") from error
     if not (isinstance(mu_steps, int) and mu_steps >= 1):
         raise ValueError(f"mu_steps must be an integer >= 1, got {mu_steps!r}")
+    if hold not in MU_HOLDS:
+        raise ValueError(f"hold must be one of {MU_HOLDS}, got {hold!r}")
+
+
+def change_mu_axisymmetric(cap: AxisymmetricCap, mu_to: float, *, steps: int, kmax: int, hold: str,
+                           history=None, vtk=None, progress=None) -> tuple[list[dict], str]:
+    """``mu`` stepped from its value to ``mu_to`` in ``steps`` equal steps with the apex ``hold``:
+    ``depth`` (the indenter stays where it is, as a displacement boundary condition carried into
+    the next step does) or ``force`` (the depth re-found at every ``mu`` by a secant iteration on
+    the force, each trial an equilibrium solve). At every state the lowest eigenvalue of each
+    wave number ``k = 0 .. kmax`` (rigid modes excluded; ``k = 0`` at fixed depth), so the rows
+    show where the axisymmetric state gains or loses stability against the polygonal modes.
+    Returns the rows and why the stage stopped: ``target``, or the failed solve (past a limit
+    point of the held quantity, e.g. a force the shrinking cap can no longer carry)."""
+    p, depth = cap.problem, cap.depth
+    force0 = cap.force()
+    ks = list(range(kmax + 1))
+    mu0 = p.mu.Get()
+    rows = []
+    for i in range(steps + 1):
+        if i:
+            p.mu.Set(mu0 + (mu_to - mu0) * i / steps)
+            try:
+                if hold == "depth":
+                    p.solve()
+                else:
+                    _hold_force(cap, force0)
+            except (NewtonError, HoldError) as error:
+                return rows, f"no equilibrium holding the {hold} at mu = {p.mu.Get():g}: {error}"
+        lowest = cap.harmonic.scan(ks, exclude_rigid=True).lowest
+        row = {"mu": p.mu.Get(), "d_over_H": depth.Get() / cap.case.H, "force": cap.force(),
+               "volume_change": cap.volume_change(), "unstable_k": [k for k in ks if lowest[k] < 0],
+               **{f"lowest_k{k}": lowest[k] for k in ks}}
+        rows.append(row)
+        if history is not None:
+            history.append(row)
+        if vtk is not None:
+            vtk.write(p.mu.Get())
+        if progress is not None:
+            progress(f"mu {row['mu']:.6g}: d/H {row['d_over_H']:.5f}, F/(E0 t^2) {row['force']:.6g}, "
+                     f"unstable k {row['unstable_k']}")
+    return rows, "target"
+
+
+class HoldError(RuntimeError):
+    """No depth near the current one carries the held force (past a limit point in force)."""
+
+
+def _hold_force(cap: AxisymmetricCap, force: float, *, step: float = 0.005, max_steps: int = 40) -> None:
+    """Move the indenter to the depth where the cap carries ``force`` (``F/(E0 t^2)``): walk the
+    path in depth steps of ``step H`` (each solve starts from the last state) until the force
+    is bracketed, then Brent's method inside the bracket."""
+
+    def excess(depth: float) -> float:
+        cap.depth.Set(depth)
+        cap.problem.solve()
+        return cap.force() - force
+
+    a = cap.depth.Get()
+    fa = excess(a)
+    direction = 1.0 if fa < 0 else -1.0  # deeper where the force is short (positive stiffness)
+    for _ in range(max_steps):
+        b = a + direction * step * cap.case.H
+        fb = excess(b)
+        if fa * fb <= 0:
+            excess(optimize.brentq(excess, min(a, b), max(a, b), xtol=1e-9 * cap.case.H, rtol=1e-12))
+            return
+        if abs(fb) > abs(fa):
+            raise HoldError(f"F/(E0 t^2) = {force:.6g} is out of reach: moving the indenter from d/H "
+                            f"{a / cap.case.H:.5f} to {b / cap.case.H:.5f} takes the force further from it "
+                            f"({fa + force:.6g} -> {fb + force:.6g}; a limit point in force)")
+        a, fa = b, fb
+    raise HoldError(f"F/(E0 t^2) = {force:.6g} not bracketed within {max_steps} depth steps of {step} H")
+
+
+def check_mu_change(case: Indentation, *, mu_at: float | None, mu_to: float | None, mu_steps: int,
+                    restart: str | None = None, hold: str = "depth") -> None:
+    """Bad input of the ``mu`` change at a depth (``--mu-at``/``--mu-to``), before any meshing."""
+    if mu_at is not None and mu_to is None:
+        raise ValueError("mu_at needs mu_to (the depth / H where mu changes, and its new value)")
+    if mu_to is not None and mu_at is None and restart is None:
+        raise ValueError("mu_to needs mu_at, or a restart whose depth is where mu changes")
+    if mu_at is not None and not 0 < mu_at <= case.depth:
+        raise ValueError(f"mu_at (depth / H) must be in (0, depth = {case.depth}], got {mu_at!r}")
+    if mu_to is not None:
+        if not -1 <= mu_to or mu_to == case.mu:
+            raise ValueError(f"mu_to must be >= -1 and differ from mu = {case.mu}, got {mu_to!r}")
+        try:
+            GEL.lam_free(mu_to)
+        except ValueError as error:
+            raise ValueError(f"mu_to = {mu_to!r}: {error}") from error
+    if not (isinstance(mu_steps, int) and mu_steps >= 1):
+        raise ValueError(f"mu_steps must be an integer >= 1, got {mu_steps!r}")
+    if hold not in MU_HOLDS:
+        raise ValueError(f"hold must be one of {MU_HOLDS}, got {hold!r}")
+
+
+def change_mu_axisymmetric(cap: AxisymmetricCap, mu_to: float, *, steps: int, kmax: int, hold: str,
+                           history=None, vtk=None, progress=None) -> tuple[list[dict], str]:
+    """``mu`` stepped from its value to ``mu_to`` in ``steps`` equal steps with the apex ``hold``:
+    ``depth`` (the indenter stays where it is, as a displacement boundary condition carried into
+    the next step does) or ``force`` (the depth re-found at every ``mu`` by a secant iteration on
+    the force, each trial an equilibrium solve). At every state the lowest eigenvalue of each
+    wave number ``k = 0 .. kmax`` (rigid modes excluded; ``k = 0`` at fixed depth), so the rows
+    show where the axisymmetric state gains or loses stability against the polygonal modes.
+    Returns the rows and why the stage stopped: ``target``, or the failed solve (past a limit
+    point of the held quantity, e.g. a force the shrinking cap can no longer carry)."""
+    p, depth = cap.problem, cap.depth
+    force0 = cap.force()
+    ks = list(range(kmax + 1))
+    mu0 = p.mu.Get()
+    rows = []
+    for i in range(steps + 1):
+        if i:
+            p.mu.Set(mu0 + (mu_to - mu0) * i / steps)
+            try:
+                if hold == "depth":
+                    p.solve()
+                else:
+                    _hold_force(cap, force0)
+            except (NewtonError, HoldError) as error:
+                return rows, f"no equilibrium holding the {hold} at mu = {p.mu.Get():g}: {error}"
+        lowest = cap.harmonic.scan(ks, exclude_rigid=True).lowest
+        row = {"mu": p.mu.Get(), "d_over_H": depth.Get() / cap.case.H, "force": cap.force(),
+               "volume_change": cap.volume_change(), "unstable_k": [k for k in ks if lowest[k] < 0],
+               **{f"lowest_k{k}": lowest[k] for k in ks}}
+        rows.append(row)
+        if history is not None:
+            history.append(row)
+        if vtk is not None:
+            vtk.write(p.mu.Get())
+        if progress is not None:
+            progress(f"mu {row['mu']:.6g}: d/H {row['d_over_H']:.5f}, F/(E0 t^2) {row['force']:.6g}, "
+                     f"unstable k {row['unstable_k']}")
+    return rows, "target"
+
+
+class HoldError(RuntimeError):
+    """No depth carries the held force (the secant iteration did not converge)."""
+
+
+def _hold_force(cap: AxisymmetricCap, force: float) -> None:
+    """Move the indenter to the depth where the cap carries ``force`` (``F/(E0 t^2)``)."""
+
+    def excess(depth: float) -> float:
+        cap.depth.Set(depth)
+        cap.problem.solve()
+        return cap.force() - force
+
+    d = cap.depth.Get()
+    root = optimize.root_scalar(excess, method="secant", x0=d, x1=d * (1 + 1e-3), xtol=1e-9 * cap.case.H,
+                                rtol=1e-12, maxiter=30)
+    if not root.converged:
+        raise HoldError(f"no depth carries F/(E0 t^2) = {force:.6g}: {root.flag}")
+    excess(root.root)
+
+
+def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
+              mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
+              snaps: int = 3, snap_tau: float | None = None, progress=None) -> dict:
+    """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
+    indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth
+    (``mu_at`` omitted with ``restart``: at the checkpoint's depth). ``mu_to`` may lie above the
+    bath's 0 up to the gel's ``mu_max`` (a slight swelling, as in the thesis's fig. 3-3B).
+    Where the path stalls, the cap snaps at the next depth (at most ``snaps`` times, first
+    pseudo-time step ``snap_tau``; see ``follow_through_snaps``).
+    Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
+    ``restart`` (such a file of the indentation) goes on from it."""
+    check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, restart=restart)
     checkpoint = None if restart is None else Checkpoint.load(restart)
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
@@ -795,9 +1011,11 @@ def main(argv=None) -> dict:
     parser.add_argument("--full", action="store_true", help="shell: the whole cap instead of the mirror half")
     parser.add_argument("--step", type=float, default=0.025, help="shell: depth step / H (natural parameter)")
     parser.add_argument("--mu-at", type=float, default=None,
-                        help="shell: change mu at this depth / H (default with --restart: the checkpoint's) ...")
+                        help="change mu at this depth / H (shell: default with --restart the checkpoint's) ...")
     parser.add_argument("--mu-to", type=float, default=None, help="... to this value (up to the gel's mu_max > 0)")
     parser.add_argument("--mu-steps", type=int, default=10, help="... in this many steps")
+    parser.add_argument("--hold", default="depth", choices=MU_HOLDS,
+                        help="axisymmetric: what the indenter keeps while mu changes (shell: the depth)")
     parser.add_argument("--restart", default=None,
                         help="shell: go on from this checkpoint.npz of an earlier run (same case and mesh)")
     parser.add_argument("--snaps", type=int, default=3,
@@ -821,7 +1039,8 @@ def main(argv=None) -> dict:
         raise ValueError(f"kmax must be an integer in [2, 40], got {args.kmax!r}")
     if not 0 < args.fit_depth <= 1:
         raise ValueError(f"fit-depth must be in (0, 1], got {args.fit_depth!r}")
-    summary = run(case, res, args.out, kmax=args.kmax, fit_depth=args.fit_depth, progress=Progress("microlens"))
+    summary = run(case, res, args.out, kmax=args.kmax, fit_depth=args.fit_depth, mu_at=args.mu_at, mu_to=args.mu_to,
+                  mu_steps=args.mu_steps, hold=args.hold, progress=Progress("microlens"))
     first = summary["first_nonaxisymmetric"]
     print(f"H/R = {case.H}, {case.direction}: {summary['steps']} steps, events "
           f"{[(e['kind'], round(e['d_over_H'], 4)) for e in summary['events']]}, snaps "
@@ -830,6 +1049,10 @@ def main(argv=None) -> dict:
           f"{None if first is None else (first['k'], round(first['d_over_H'], 4))}, fit C = {summary['fit']['C']:.4g} "
           f"(misfit {summary['fit']['misfit']:.2g}), max |volume change| {summary['max_volume_change']:.2e}, "
           f"{summary['wall_s']:.1f} s")
+    if "mu_change" in summary:
+        change = summary["mu_change"]
+        print(f"mu changed at d/H = {change['d_over_H']} holding the {change['hold']} ({change['stop_reason']}): "
+              f"unstable k per mu {[(round(row['mu'], 8), row['unstable_k']) for row in change['rows']]}")
     return summary
 
 
