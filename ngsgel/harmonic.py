@@ -174,11 +174,12 @@ class HarmonicStability:
         mass.Assemble()
         return free_matrix(stiffness.mat, free), free_matrix(mass.mat, free), free
 
-    def spectrum(self, k: int, *, count: int = 3, exclude_rigid: bool = False) -> Spectrum:
+    def spectrum(self, k: int, *, count: int = 3, exclude_rigid: bool = False,
+                 past_negative: bool = False) -> Spectrum:
         """Lowest eigenvalues, modes (free-dof vectors of the unknowns) and the exact negative
         count for wave number ``k``; comparable across ``k`` and with the 3D tangent. With more
-        than ``count`` negative eigenvalues the ones nearest zero are returned
-        (``ngsgel.stability.spectrum``).
+        than ``count`` negative eigenvalues the ones nearest zero are returned, unless
+        ``past_negative`` raises ``count`` past them (``ngsgel.stability.spectrum``).
 
         ``exclude_rigid``: drop the zero eigenvalues of rigid motions the constraints leave free
         (``k = 0``: rotation about and translation along the axis; ``k = 1``: translation across
@@ -190,11 +191,12 @@ class HarmonicStability:
         rigid = self.rigid_modes(k) if exclude_rigid else np.zeros((len(free), 0))[free]
         n = rigid.shape[1]
         if n == 0:
-            return spectrum(_HarmonicSystem(free, volume), count=count, K=K, M=M)
+            return spectrum(_HarmonicSystem(free, volume), count=count, K=K, M=M, past_negative=past_negative)
         # The inertia of a singular K is decided by round-off in its zero pivots; shifted by a
         # hair, the rigid zeros count as positive and only eigenvalues below -shift as negative.
         shift = 1e-10 * float(np.max(np.abs(K.diagonal() / M.diagonal())))
-        full = spectrum(_HarmonicSystem(free, volume), count=count + n, K=K + shift * M, M=M)
+        full = spectrum(_HarmonicSystem(free, volume), count=count + n, K=K + shift * M, M=M,
+                        past_negative=past_negative)
         full.eigenvalues = full.eigenvalues - shift
         # M-orthonormal basis of the rigid span, then each mode's share in it
         Q, _ = np.linalg.qr(rigid)
@@ -282,8 +284,10 @@ class HarmonicStability:
         return np.array([1.0 / v if v > 0 else np.inf for v in w[::-1]])
 
     def scan(self, ks: Iterable[int], *, count: int = 1, exclude_rigid: bool = False) -> HarmonicScan:
-        """Lowest eigenvalues for each wave number in ``ks``."""
-        spectra = {int(k): self.spectrum(k, count=count, exclude_rigid=exclude_rigid) for k in ks}
+        """Lowest eigenvalues for each wave number in ``ks`` (at least ``count``, and every
+        negative one: ``lowest`` is the lowest even where a wave number has several)."""
+        spectra = {int(k): self.spectrum(k, count=count, exclude_rigid=exclude_rigid, past_negative=True)
+                   for k in ks}
         return HarmonicScan(spectra)
 
 

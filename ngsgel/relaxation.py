@@ -127,7 +127,7 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
         K.AsVector().data += (1.0 / tau) * mass.AsVector()
         return K, solver.factor(K)
 
-    first = spectrum(problem, count=1)
+    first = spectrum(problem, count=1, past_negative=True)  # with several negative: the lowest first
     omega = float(first.eigenvalues[0])
     tau0 = tau if tau is not None else (0.5 / abs(omega) if omega < 0 else 1.0 / omega)
     tau = tau0
@@ -289,7 +289,7 @@ def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, a
     if unstable:  # an unlocated loss, or one exactly at the target: leave along the lowest mode
         problem.restore_state(state)
         parameter.Set(path.checkpoint.parameter)
-        lowest = spectrum(problem, count=1)
+        lowest = spectrum(problem, count=1, past_negative=True)
         mode = np.zeros_like(state)
         mode[problem.free_mask] = lowest.modes[:, 0]  # unit root-mean-square amplitude
     return _push_and_settle(problem, parameter, state, mode, load, amplitude=amplitude, **settle_options)

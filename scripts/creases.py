@@ -671,7 +671,8 @@ def crease_threshold(setup: Setup, *, step: float = 0.002, start_ratio: float = 
         path.append({"mu": mu, "ratio": setup.ratio(mu), "groove_depth": surf["groove_depth"],
                      "crease_depth": surf["crease_depth_left"], "penetration": surf["penetration"],
                      "self_crossings": surf["self_crossings"],
-                     "lowest_eigenvalue": float(spectrum(prob, count=1).eigenvalues[0]) if eigenvalues else None})
+                     "lowest_eigenvalue": float(spectrum(prob, count=1, past_negative=True).eigenvalues[0])
+                     if eigenvalues else None})
         if history is not None:
             history.append(path[-1])
         if surf["contact_points_left"] > 0 or surf["contact_points_right"] > 0:

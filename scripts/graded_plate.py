@@ -378,13 +378,9 @@ def mode_deflection(hs: HarmonicStability, k: int, vector: np.ndarray, radii: np
 
 
 def lowest_eigenvalue(hs: HarmonicStability, k: int) -> float:
-    """The lowest eigenvalue of wave number ``k`` (rigid motions excluded). ``spectrum(count=1)``
-    returns the negative eigenvalue nearest zero when there are several (shift-invert about a
-    shift just below zero): ask again for all of them then."""
-    spectrum = hs.spectrum(k, count=1, exclude_rigid=True)
-    if spectrum.negative > 1:
-        spectrum = hs.spectrum(k, count=spectrum.negative + 1, exclude_rigid=True)
-    return float(np.min(spectrum.eigenvalues))
+    """The lowest eigenvalue of wave number ``k`` (rigid motions excluded; with several negative
+    ones the lowest, not the one nearest zero)."""
+    return float(np.min(hs.spectrum(k, count=1, exclude_rigid=True, past_negative=True).eigenvalues))
 
 
 def onset_curve(prob: EquilibriumProblem, stretch: ngs.Parameter, *, nv: tuple[float, float], target: float,

@@ -200,3 +200,18 @@ def test_a_pinned_vertex_removes_the_rigid_modes_of_its_ring():
         assert held.negative == 0 and 1e-3 * without.eigenvalues[1] < held.eigenvalues[0] <= without.eigenvalues[3]
     with pytest.raises(ValueError, match="no mesh vertex"):
         HarmonicStability(prob, axis="left", pins=[(0.25, 0.013)])
+
+
+def test_scan_reports_the_lowest_eigenvalue_of_a_wave_number_with_two_negative_ones():
+    # The straight clamped-guided rod past 4x Euler's strain has two unstable k = 1 modes (one and
+    # two half-waves of sway); shift-invert about zero finds the one nearest zero first.
+    prob, shortening, *_ = _gel_rod(clamped=True)
+    euler = np.pi**2 * 0.05**2 / 4
+    ramp(prob, shortening, 4.6 * euler, step=euler)
+    hs = HarmonicStability(prob, axis="left")
+    all_three = hs.spectrum(1, count=3, exclude_rigid=True)
+    assert all_three.negative == 2 and all_three.eigenvalues[0] < all_three.eigenvalues[1] < 0
+    nearest_zero = hs.spectrum(1, count=1, exclude_rigid=True).eigenvalues[0]
+    assert nearest_zero == pytest.approx(all_three.eigenvalues[1], rel=1e-8)
+    scan = hs.scan([1], exclude_rigid=True)
+    assert scan.lowest[1] == pytest.approx(all_three.eigenvalues[0], rel=1e-8) and scan.unstable == [1]

@@ -133,3 +133,29 @@ def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_low
     follow_path(reference, reference_load, step=0.3, max_step=2.0, target=1.3,
                 stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
     assert abs(tip()) == pytest.approx(abs(reference_tip()), rel=1e-8)
+
+
+def test_a_state_with_two_negative_eigenvalues_is_pushed_along_the_lowest_mode(monkeypatch):
+    # Column past its second critical shortening (4.6x the first: two negative eigenvalues),
+    # both losses unlocated: the push must follow the lowest mode (one sway), not the negative one
+    # nearest zero, along which the flow ends on the unstable second-mode equilibrium.
+    from ngsgel import continuation
+    from ngsgel.newton import NewtonError, NewtonResult
+
+    def failing_locate(self, a, b, segment):
+        raise NewtonError("location failed", NewtonResult(False, 20))
+
+    monkeypatch.setattr(continuation._Driver, "_locate", failing_locate)
+    prob, load, tip = column(12, control="displacement")
+    path = follow_path(prob, load, method="natural", step=0.5, max_step=0.5, target=4.6,
+                       stability=StabilityOptions(eigenvalues=2))
+    assert path.points[-1].negative == 2
+    result = settle_after(prob, load, path, overshoot=1.0, target=4.6, amplitude=1e-3)
+    assert result.negative == 0
+
+    monkeypatch.undo()
+    reference, reference_load, reference_tip = column(12, control="displacement")
+    follow_path(reference, reference_load, step=0.3, max_step=1.0, target=4.6,
+                stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    assert abs(tip()) == pytest.approx(abs(reference_tip()), rel=1e-8)
+    assert prob.energy() == pytest.approx(reference.energy(), rel=1e-9)
