@@ -619,7 +619,7 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
                 stability: StabilityOptions | None = None, stabilization: Stabilization | None = None,
                 history=None, vtk=None, vtk_every: int = 1, progress: Callable[[str], None] | None = None,
                 restart: Checkpoint | None = None, keep_states: bool = False, grow: float = 1.5,
-                easy_iterations: int = 4, hard_iterations: int = 8,
+                easy_iterations: int = 4, hard_iterations: int = 8, max_correction: float | None = None,
                 newton_options: dict | None = None, checkpoint_file: str | Path | None = None) -> PathResult:
     """Follow the equilibrium path of ``problem`` in ``parameter`` from its current state
     (equilibrated first) or from ``restart``.
@@ -634,6 +634,9 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     every ``vtk_every`` steps and at events; ``progress``: called with one line per step.
     ``stabilization`` (natural runs only) damps the rate of displacement; events are then recorded
     without location. ``keep_states`` stores every state in its ``PathPoint``.
+    ``max_correction`` (natural runs): refuse a step that converged farther from its predictor
+    than this many predicted increments (``ngsgel.stepping.ramp``): a jump onto another branch
+    that neither end's stability shows; 2 separates them on the snapping arch.
     ``newton_options`` go to every Newton solve; unless it sets ``atol``, solves get the floor
     ``1e-10 * step * |dR/dlambda|`` (a solve that starts next to its solution cannot reduce a
     residual at round-off level by a relative factor).
@@ -651,6 +654,9 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
         raise ValueError("stabilisation is for natural-parameter runs; arclength needs none")
     if direction not in (1, -1):
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
+    if max_correction is not None and (method != "natural" or not max_correction > 0):
+        raise ValueError(f"max_correction must be a number > 0 and is for natural-parameter runs, got "
+                         f"{max_correction!r} with method {method!r}")
     if restart is not None and restart.method != method:
         raise ValueError(f"the checkpoint is from a {restart.method!r} run, not {method!r}")
     if checkpoint_file is not None and Path(checkpoint_file).suffix != ".npz":
@@ -677,7 +683,8 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     driver.record(current, dissipated=0.0 if stabilization else None)
     if method == "natural":
         return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
-                        stabilization=stabilization, grow=grow, easy=easy_iterations, newton_options=newton_options)
+                        stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
+                        newton_options=newton_options)
     return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
                       direction=direction, scale=restart.scale if restart else None, grow=grow,
                       easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
@@ -691,7 +698,7 @@ def _corrector(problem, parameter: ngs.Parameter, newton_options: dict) -> Borde
 
 
 def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, max_step, stabilization, grow, easy,
-             newton_options) -> PathResult:
+             max_correction, newton_options) -> PathResult:
     problem, parameter = driver.problem, driver.parameter
     system = _Damped(problem, parameter, stabilization) if stabilization is not None else problem
     state = {"current": current}
@@ -733,7 +740,8 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
         try:
             result = ramp(system, parameter, target, step=h, min_step=min_step, max_step=max_step, grow=grow,
                           easy_iterations=easy, on_step=on_step, newton_options=newton_options,
-                          tangent_start=stabilization is None)  # damping's tangent needs a step
+                          tangent_start=stabilization is None,  # damping's tangent needs a step
+                          max_correction=max_correction)
         except RampError as err:
             path = PathResult(driver.points, driver.events, "min_step",
                               driver.checkpoint("natural", state["current"], None, h, None))

@@ -10,7 +10,7 @@ import ngsolve as ngs
 
 from .newton import LinearSolver, NewtonError, NewtonResult
 
-__all__ = ["ramp", "tangent_predictor", "RampResult", "RampError"]
+__all__ = ["ramp", "tangent_predictor", "RampResult", "RampError", "JumpError"]
 
 
 @dataclass
@@ -27,6 +27,11 @@ class RampResult:
         return len(self.values)
 
 
+class JumpError(NewtonError):
+    """A step converged too far from its predictor (``ramp``'s ``max_correction``): onto another
+    branch. Handled as a failed step."""
+
+
 class RampError(RuntimeError):
     """The step fell below ``min_step``; the problem holds the last converged state."""
 
@@ -38,7 +43,8 @@ class RampError(RuntimeError):
 def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None = None,
          min_step: float | None = None, max_step: float | None = None, grow: float = 1.5,
          easy_iterations: int = 4, on_step: Callable[[float, NewtonResult], bool | None] | None = None,
-         newton_options: dict | None = None, tangent_start: bool = True) -> RampResult:
+         newton_options: dict | None = None, tangent_start: bool = True,
+         max_correction: float | None = None) -> RampResult:
     """Move ``parameter`` to ``target`` through converged equilibria of ``problem``.
 
     The first guess of the first step is the tangent (Euler) predictor from the converged start
@@ -57,6 +63,13 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
     A failed step is undone and halved; a step that converged in at most ``easy_iterations`` lets the next one grow by ``grow``. ``on_step`` is
     called after every converged step (recording, output); if it returns True the ramp stops
     there with ``stopped`` set (the problem keeps whatever state ``on_step`` left).
+
+    ``max_correction``: a step that converged farther from its predictor than ``max_correction``
+    times the predicted increment (free dofs, Euclidean norm) fails as well. Past a fold, or
+    where two stable states coexist, Newton can converge onto another branch, which neither end's
+    stability tells; along a smooth path the correction is a small fraction of the increment and
+    shrinks with the step (a snapping arch: <= 0.3 before its limit point, 3 for the step across
+    it), so halving such a step leads back to the path or stalls at the fold (``RampError``).
     """
     start = parameter.Get()
     span = target - start
@@ -70,6 +83,8 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
     min_step = abs(span) * 1e-6 if min_step is None else abs(min_step)
     if not (min_step <= step) or step <= 0:
         raise ValueError(f"step must be in [min_step, |target - start|], got step={step}, min_step={min_step}")
+    if max_correction is not None and not max_correction > 0:
+        raise ValueError(f"max_correction must be a number > 0 (or None), got {max_correction!r}")
     direction = np.sign(span)
     result = RampResult(converged=False)
     previous = None  # (value, state) of the converged state before the current one
@@ -92,8 +107,13 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
                 problem.restore_state(state + (new - value) / (value - previous[0]) * (state - previous[1]))
                 if not problem.admissible(problem.state):
                     problem.restore_state(state)
+            predicted = problem.save_state()
         try:
             newton_result = problem.solve(**(newton_options or {}))
+            if max_correction is not None:
+                free = problem.free_mask
+                _check_correction(problem.save_state()[free], predicted[free], state[free], max_correction,
+                                  newton_result)
         except NewtonError as err:
             problem.restore_state(state)
             parameter.Set(value)
@@ -112,6 +132,15 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
             result.message = f"stopped by on_step at {new:g}"
             return result
         step = h * grow if newton_result.iterations <= easy_iterations else h
+
+
+def _check_correction(solution: np.ndarray, predicted: np.ndarray, start: np.ndarray, max_correction: float,
+                      newton_result: NewtonResult) -> None:
+    increment = float(np.linalg.norm(predicted - start))
+    correction = float(np.linalg.norm(solution - predicted))
+    if correction > max_correction * increment and increment > 0:
+        raise JumpError(f"converged {correction / increment:.3g} predicted increments away from the predictor "
+                        f"(max_correction {max_correction:g}): onto another branch", newton_result)
 
 
 def _free_residual_norm(problem) -> float:

@@ -82,6 +82,7 @@ INDENTERS = ("sliding", "bonded")
 AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
 MU_HOLDS = ("depth", "force")  # what the indenter keeps while mu changes (axisymmetric model)
 BASE_MIDPOINT = (1.0, 0.0)  # (r, z) of the base's mid-surface circle in the section
+JUMP_RATIO = 2.0  # a shell step converged farther from its predictor than this many increments jumped
 
 
 @dataclass(frozen=True)
@@ -389,7 +390,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                  restart: Checkpoint | None = None) -> PathResult:
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
-    onto the bifurcated branch. A path that cannot go on (a limit point under displacement control)
+    onto the bifurcated branch; steps that converge far from their predictor (``JUMP_RATIO``)
+    are cut as failed. A path that cannot go on (a limit point under displacement control)
     ends with ``stop_reason`` "stalled: ..." instead of raising; one left on an unstable branch (the
     location or the branch switch failed) stops there ("criterion"). ``checkpoint_file``/``restart``:
     see ``follow_path``."""
@@ -409,6 +411,9 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                            checkpoint_file=checkpoint_file, restart=restart,
                            # on an unstable branch: a change whose location or branch switch failed
                            stop=lambda pt: pt.negative > 0,
+                           # two stable states coexist on some paths (lateral 0.6R, bonded patch): a
+                           # large step can converge onto the other one, which no eigenvalue shows
+                           max_correction=JUMP_RATIO,
                            # a chord step costs a residual, ~1/25 of a shell tangent
                            newton_options={"reuse_factorisation": True})
     except ContinuationError as error:

@@ -385,3 +385,27 @@ def test_a_step_with_more_than_one_crossing_is_reported_unlocated(monkeypatch):
     assert first.kind == "bifurcation" and (first.negative_before, first.negative_after) == (0, 1)
     assert second.kind == "stability change" and "more than one eigenvalue" in second.details["locate_failed"]
     assert (second.negative_before, second.negative_after) == (1, 2)
+
+
+def test_a_natural_step_across_a_limit_point_is_a_jump_that_max_correction_refuses():
+    # The arch's limit load lies at 0.0301 (arclength above). Natural steps of 0.01 converge
+    # from 0.03 (w = 0.46) straight onto the far branch at 0.04 (w = 1.59) with no event: both
+    # ends are stable. That step lands 3.3 predicted increments from its secant predictor, while
+    # steps along the branch land within 0.4 (1.6 for the step ending next to the limit): with
+    # max_correction = 2 the step is cut back until it stalls at the limit point (here after
+    # 0.01 -> 0.005 -> 0.0025, each refused).
+    prob, load, w = arch()
+    jumped = follow_path(prob, load, method="natural", step=0.01, max_step=0.01, target=0.05, qoi={"w": w},
+                         stability=StabilityOptions(eigenvalues=1))
+    assert jumped.stop_reason == "target" and jumped.events == []
+    assert jumped.column("w")[-2] > 1.5 > 0.5 > jumped.column("w")[-3]
+
+    prob, load, w = arch()
+    with pytest.raises(ContinuationError) as stalled:
+        follow_path(prob, load, method="natural", step=0.01, max_step=0.01, min_step=2e-3, target=0.05,
+                    qoi={"w": w}, stability=StabilityOptions(eigenvalues=1), max_correction=2.0)
+    path = stalled.value.result
+    assert path.column("w")[-1] < 0.5 and path.points[-1].parameter == pytest.approx(0.03)
+    for method, value in (("natural", 0.0), ("arclength", 2.0)):
+        with pytest.raises(ValueError, match="max_correction"):
+            follow_path(prob, load, method=method, step=0.01, target=0.05, max_correction=value)

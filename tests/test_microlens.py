@@ -219,7 +219,9 @@ def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
         assert (tmp_path / name).stat().st_size > 0
 
 
-@pytest.mark.parametrize("edge, indenter", [("hinged", "sliding"), ("hinged", "bonded"), ("clamped", "sliding")])
+@pytest.mark.parametrize("edge, indenter", [pytest.param("hinged", "sliding", marks=pytest.mark.slow),
+                                             ("hinged", "bonded"),
+                                             pytest.param("clamped", "sliding", marks=pytest.mark.slow)])
 def test_shallow_cap_snaps_axisymmetrically_only_when_its_edge_is_hinged(edge, indenter, tmp_path):
     # H = 0.1R (lambda = 4.87), coarse section. Hinged: a force maximum (a snap under force control)
     # at d/H 1.345-1.367 on the fine section (h = 0.02, order 3; this one, h = 0.1 order 2: 1.368);
