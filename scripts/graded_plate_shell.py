@@ -123,7 +123,7 @@ def pattern_depth(shell, mesh: ngs.Mesh, k: int, *, half: bool, radii: np.ndarra
 def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
         max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = MU_START,
         maxit: int | None = None, half: bool = True, switch_all: bool = False, through_snaps: bool = True,
-        snap_overshoot: float = 1e-3, quick: bool = False) -> dict:
+        snap_overshoot: float = 1e-3, jump_ratio: float | None = None, quick: bool = False) -> dict:
     """The defaults are the protocol that reaches ``mu = 0`` (docs/graded.md): the half disk, one
     switch onto the saddle, then its branch and the ones it snaps to.
     ``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
@@ -142,11 +142,15 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     stability or the steps stall (below ``step / MIN_STEP_DIVISOR``: a fold); the disk then snaps at ``mu`` =
     critical (or last) + ``snap_overshoot`` (at most 0) (``ngsgel.relaxation.settle_after``: pushed 0.1 t
     along the critical mode, relaxed by the overdamped flow to a stable state, reported in
-    ``events.json`` as "snap") and the next leg follows the branch it lands on."""
+    ``events.json`` as "snap") and the next leg follows the branch it lands on. ``jump_ratio``:
+    those natural legs also refuse a step that converged farther from its predictor than this
+    many predicted increments (``follow_path``'s ``max_correction``: a jump onto another branch)."""
     if through_snaps and switch_all:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
     if not snap_overshoot > 0:
         raise ValueError(f"snap_overshoot must be positive (mu rises), got {snap_overshoot!r}")
+    if jump_ratio is not None and not jump_ratio > 0:
+        raise ValueError(f"jump_ratio must be a number > 0, got {jump_ratio!r}")
     if quick:  # the coarsest mesh whose onset is right (at h = 0.3 it comes at a mu 42 % lower)
         maxh, max_steps, realcompile, half = 0.2, min(max_steps, 8), False, True
         switch_all, through_snaps = False, False
@@ -155,7 +159,8 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
                          f"(the resolution of a stalled natural leg), got {snap_overshoot!r}")
     params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
-                  switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot, quick=quick,
+                  switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot,
+                  jump_ratio=jump_ratio, quick=quick,
                   rim_radius=RIM_RADIUS)
     run_dir = RunDirectory(out, params=params)
     progress = Progress("graded_plate_shell")
@@ -189,7 +194,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
             newton_options = {} if maxit is None else {"maxit": maxit}
             leg_options = {"newton_options": newton_options}
             if natural:
-                leg_options = {"easy_iterations": EASY_ITERATIONS,
+                leg_options = {"easy_iterations": EASY_ITERATIONS, "max_correction": jump_ratio,
                                "newton_options": {**newton_options, "stall_window": STALL_WINDOW}}
             try:
                 path = follow_path(shell, shell.mu, method="natural" if natural else "arclength",
@@ -374,6 +379,9 @@ def main(argv=None) -> dict:
     parser.add_argument("--seed-wave", type=int, help="instead: seed this wave number (half disk, transverse "
                         "dead load), swell to mu = 0, remove the seed and relax (seeded_pattern)")
     parser.add_argument("--seed-load", type=float, default=1e-3, help="seed load in units of D / R^4")
+    parser.add_argument("--jump-ratio", type=float, default=None,
+                        help="snapping legs: refuse steps that converge this many predicted increments from "
+                             "their predictor (a jump onto another branch); default: no such check")
     args = parser.parse_args(argv)
     if args.seed_wave is not None:
         summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, t=args.t,
@@ -386,7 +394,7 @@ def main(argv=None) -> dict:
                   max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
                   maxit=args.maxit, half=args.half,
                   switch_all=args.switch_all, through_snaps=not (args.switch_all or args.no_snaps),
-                  snap_overshoot=args.snap_overshoot,
+                  snap_overshoot=args.snap_overshoot, jump_ratio=args.jump_ratio,
                   quick=quick_run(args))
     print(json.dumps({k: v for k, v in summary.items() if k != "events"}, default=str, indent=1))
     for e in summary["events"]:

@@ -70,3 +70,10 @@ def test_a_snap_overshoot_inside_the_stall_resolution_is_rejected_before_work(tm
     with pytest.raises(ValueError, match="snap_overshoot must"):
         graded_plate_shell.run(str(tmp_path), step=0.05, snap_overshoot=overshoot)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("ratio", [0.0, -1.0])
+def test_a_non_positive_jump_ratio_is_rejected_before_work(tmp_path, ratio):
+    with pytest.raises(ValueError, match="jump_ratio must"):
+        graded_plate_shell.run(str(tmp_path), jump_ratio=ratio)
+    assert not any(tmp_path.iterdir())
