@@ -64,13 +64,14 @@ from scipy import optimize  # noqa: E402
 import ngsolve as ngs  # noqa: E402
 
 from geometries import cap_midsurface, cap_section  # noqa: E402
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, NewtonError, follow_path  # noqa: E402
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, NewtonError, follow_path, ramp  # noqa: E402
 from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions  # noqa: E402
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
 from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_number  # noqa: E402
 from ngsgel.relaxation import settle_after  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
+from ngsgel.stepping import RampError  # noqa: E402
 from ngsgel.stability import conjugate_force  # noqa: E402
 from ngsgel.supports import pin_vertex_component  # noqa: E402
 
@@ -825,7 +826,7 @@ def change_mu_axisymmetric(cap: AxisymmetricCap, mu_to: float, *, steps: int, km
                     p.solve()
                 else:
                     _hold_force(cap, force0)
-            except (NewtonError, HoldError) as error:
+            except (NewtonError, RampError, HoldError) as error:
                 return rows, f"no equilibrium holding the {hold} at mu = {p.mu.Get():g}: {error}"
         lowest = cap.harmonic.scan(ks, exclude_rigid=True).lowest
         row = {"mu": p.mu.Get(), "d_over_H": depth.Get() / cap.case.H, "force": cap.force(),
@@ -848,12 +849,12 @@ class HoldError(RuntimeError):
 
 def _hold_force(cap: AxisymmetricCap, force: float, *, step: float = 0.005, max_steps: int = 40) -> None:
     """Move the indenter to the depth where the cap carries ``force`` (``F/(E0 t^2)``): walk the
-    path in depth steps of ``step H`` (each solve starts from the last state) until the force
-    is bracketed, then Brent's method inside the bracket."""
+    path in depth steps of ``step H`` until the force is bracketed, then Brent's method inside
+    the bracket; every move of the indenter is a ramp from the last state (cut back where Newton
+    struggles)."""
 
     def excess(depth: float) -> float:
-        cap.depth.Set(depth)
-        cap.problem.solve()
+        ramp(cap.problem, cap.depth, depth)
         return cap.force() - force
 
     a = cap.depth.Get()
