@@ -109,7 +109,9 @@ def test_bad_growth_factor_is_named():
         settle(prob, grow=1.0)
 
 
-def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_lowest_mode(monkeypatch):
+def _column_with_unlocated_losses(monkeypatch, *, step: float, target: float):
+    """The clamped-guided column shortened to ``target`` by natural steps, every loss of stability
+    on the way unlocated (a location that fails), so the path ends on the unstable straight state."""
     from ngsgel import continuation
     from ngsgel.newton import NewtonError, NewtonResult
 
@@ -118,8 +120,21 @@ def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_low
 
     monkeypatch.setattr(continuation._Driver, "_locate", failing_locate)
     prob, load, tip = column(12, control="displacement")
-    path = follow_path(prob, load, method="natural", step=0.3, max_step=0.3, target=1.3,
+    path = follow_path(prob, load, method="natural", step=step, max_step=step, target=target,
                        stability=StabilityOptions(eigenvalues=2))
+    return prob, load, tip, path
+
+
+def _switched_column(target: float, *, max_step: float):
+    """The column's buckled state at ``target`` reached by located bifurcation and branch switch."""
+    reference, load, tip = column(12, control="displacement")
+    follow_path(reference, load, step=0.3, max_step=max_step, target=target,
+                stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    return reference, tip
+
+
+def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_lowest_mode(monkeypatch):
+    prob, load, tip, path = _column_with_unlocated_losses(monkeypatch, step=0.3, target=1.3)
     assert path.points[-1].negative == 1 and path.events[-1].kind == "stability change"
     assert path.points[-1].parameter == 1.3  # it ended unstable at the target: settles there
     settle_after(prob, load, path, overshoot=1.0, target=1.3, amplitude=1e-3)
@@ -129,9 +144,7 @@ def test_after_an_unlocated_loss_the_unstable_last_state_is_pushed_along_its_low
         settle_after(prob, load, stable_end, overshoot=1.0, target=1.3, amplitude=1e-3)
 
     monkeypatch.undo()
-    reference, reference_load, reference_tip = column(12, control="displacement")
-    follow_path(reference, reference_load, step=0.3, max_step=2.0, target=1.3,
-                stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    _, reference_tip = _switched_column(1.3, max_step=2.0)
     assert abs(tip()) == pytest.approx(abs(reference_tip()), rel=1e-8)
 
 
@@ -139,23 +152,12 @@ def test_a_state_with_two_negative_eigenvalues_is_pushed_along_the_lowest_mode(m
     # Column past its second critical shortening (4.6x the first: two negative eigenvalues),
     # both losses unlocated: the push must follow the lowest mode (one sway), not the negative one
     # nearest zero, along which the flow ends on the unstable second-mode equilibrium.
-    from ngsgel import continuation
-    from ngsgel.newton import NewtonError, NewtonResult
-
-    def failing_locate(self, a, b, segment):
-        raise NewtonError("location failed", NewtonResult(False, 20))
-
-    monkeypatch.setattr(continuation._Driver, "_locate", failing_locate)
-    prob, load, tip = column(12, control="displacement")
-    path = follow_path(prob, load, method="natural", step=0.5, max_step=0.5, target=4.6,
-                       stability=StabilityOptions(eigenvalues=2))
+    prob, load, tip, path = _column_with_unlocated_losses(monkeypatch, step=0.5, target=4.6)
     assert path.points[-1].negative == 2
     result = settle_after(prob, load, path, overshoot=1.0, target=4.6, amplitude=1e-3)
     assert result.negative == 0
 
     monkeypatch.undo()
-    reference, reference_load, reference_tip = column(12, control="displacement")
-    follow_path(reference, reference_load, step=0.3, max_step=1.0, target=4.6,
-                stability=StabilityOptions(eigenvalues=2, tol=1e-5, switch=True, amplitude=0.05))
+    reference, reference_tip = _switched_column(4.6, max_step=1.0)
     assert abs(tip()) == pytest.approx(abs(reference_tip()), rel=1e-8)
     assert prob.energy() == pytest.approx(reference.energy(), rel=1e-9)
