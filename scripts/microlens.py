@@ -807,8 +807,8 @@ def change_mu_axisymmetric(cap: AxisymmetricCap, mu_to: float, *, steps: int, km
                            history=None, vtk=None, progress=None) -> tuple[list[dict], str]:
     """``mu`` stepped from its value to ``mu_to`` in ``steps`` equal steps with the apex ``hold``:
     ``depth`` (the indenter stays where it is, as a displacement boundary condition carried into
-    the next step does) or ``force`` (the depth re-found at every ``mu`` by a secant iteration on
-    the force, each trial an equilibrium solve). At every state the lowest eigenvalue of each
+    the next step does) or ``force`` (the depth re-found at every ``mu``: ``_hold_force``). At
+    every state the exact negative count and the lowest eigenvalue of each
     wave number ``k = 0 .. kmax`` (rigid modes excluded; ``k = 0`` at fixed depth), so the rows
     show where the axisymmetric state gains or loses stability against the polygonal modes.
     Returns the rows and why the stage stopped: ``target``, or the failed solve (past a limit
@@ -828,10 +828,10 @@ def change_mu_axisymmetric(cap: AxisymmetricCap, mu_to: float, *, steps: int, km
                     _hold_force(cap, force0)
             except (NewtonError, RampError, HoldError) as error:
                 return rows, f"no equilibrium holding the {hold} at mu = {p.mu.Get():g}: {error}"
-        lowest = cap.harmonic.scan(ks, exclude_rigid=True).lowest
+        scan = cap.harmonic.scan(ks, exclude_rigid=True)
         row = {"mu": p.mu.Get(), "d_over_H": depth.Get() / cap.case.H, "force": cap.force(),
-               "volume_change": cap.volume_change(), "unstable_k": [k for k in ks if lowest[k] < 0],
-               **{f"lowest_k{k}": lowest[k] for k in ks}}
+               "volume_change": cap.volume_change(), "unstable_k": scan.unstable,
+               **{f"lowest_k{k}": value for k, value in scan.lowest.items()}}
         rows.append(row)
         if history is not None:
             history.append(row)
