@@ -67,9 +67,10 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
     ``max_correction``: a step that converged farther from its predictor than ``max_correction``
     times the predicted increment (free dofs, Euclidean norm) fails as well. Past a fold, or
     where two stable states coexist, Newton can converge onto another branch, which neither end's
-    stability tells; along a smooth path the correction is a small fraction of the increment and
-    shrinks with the step (a snapping arch: <= 0.3 before its limit point, 3 for the step across
-    it), so halving such a step leads back to the path or stalls at the fold (``RampError``).
+    stability tells; along a smooth path the correction is a fraction of the increment and
+    shrinks with the step (a snapping arch: 0.05-0.4 along its branch, 1.6 for the step ending
+    next to its limit point, 3.3 for the step across it), so halving such a step leads back to the
+    path or stalls at the fold (``RampError``).
     """
     start = parameter.Get()
     span = target - start
@@ -107,7 +108,7 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
                 problem.restore_state(state + (new - value) / (value - previous[0]) * (state - previous[1]))
                 if not problem.admissible(problem.state):
                     problem.restore_state(state)
-            predicted = problem.save_state()
+            predicted = problem.save_state() if max_correction is not None else None
         try:
             newton_result = problem.solve(**(newton_options or {}))
             if max_correction is not None:
