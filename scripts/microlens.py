@@ -72,7 +72,7 @@ from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_numbe
 from ngsgel.relaxation import settle_after  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stepping import RampError  # noqa: E402
-from ngsgel.stability import conjugate_force  # noqa: E402
+from ngsgel.stability import conjugate_force, growth_exponents  # noqa: E402
 from ngsgel.supports import pin_vertex_component  # noqa: E402
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
@@ -450,7 +450,8 @@ def follow_axisymmetric(cap: AxisymmetricCap, *, kmax: int, step: float, max_ste
     monitor = HarmonicMonitor(cap, kmax)
     qoi = {"d_over_H": lambda: cap.depth.Get() / cap.case.H, "force": cap.force,
            "volume_change": cap.volume_change, "lowest_nonaxisymmetric": monitor.update,
-           "k_lowest": monitor.critical_k, "unstable_k_count": monitor.unstable_count}
+           "k_lowest": monitor.critical_k, "unstable_k_count": monitor.unstable_count,
+           **{f"lowest_k{k}": (lambda k=k: monitor.lowest[k]) for k in monitor.ks}}
     return follow_path(cap.problem, cap.depth, method="arclength", step=step, max_step=max_step,
                        min_step=step * 1e-4, target=cap.case.depth * cap.case.H if target is None else target,
                        max_steps=400, qoi=qoi,
@@ -483,6 +484,66 @@ def first_nonaxisymmetric(cap: AxisymmetricCap, path: PathResult, *, kmax: int) 
     cap.problem.solve()
     return {"d_over_H": found.parameter / cap.case.H, "k": found.k, "force": cap.force(),
             "volume_change": cap.volume_change(), "path_step": first}
+
+
+def growth_along_path(case: Indentation, path: PathResult) -> dict:
+    """Growth exponents of the wave numbers on the axisymmetric path, read as a run with viscous
+    stabilisation and no imperfection (the thesis's Abaqus runs, sec. 3.2) would see it: with the
+    depth ramped at a constant rate under the overdamped flow ``c M dx/dtau = -K x``, wave number
+    k grows by ``exp(G_k / (c d'))`` after it loses stability, ``G_k = int max(0, -omega_k) dd``
+    (``ngsgel.stability.growth_exponents``; ``omega_k`` the lowest eigenvalue of k with the
+    harmonic scan's mass ``int |u|^2 dV``, depth ``d`` in units of R). A pattern becomes visible
+    where the largest ``G_k`` reaches ``T = c d' ln(A / a0)``, one number of the run: departing at
+    depth ``d`` means ``T = max_k G_k(d)`` and the pattern seen first is its argmax. Rows: per
+    path state on the path's first stretch of strictly increasing depth (the exponents need a
+    monotonic load), ``G_k``, the leading k and its ``G``."""
+    d = path.column("d_over_H") * case.H
+    end = next((i for i in range(1, d.size) if d[i] <= d[i - 1]), d.size)
+    ks = sorted(int(name[len("lowest_k"):]) for name in path.points[0].qoi if name.startswith("lowest_k"))
+    if end < 2 or not ks:
+        return {"rows": [], "ks": ks, "until_d_over_H": float(d[end - 1] / case.H)}
+    omega = np.array([[pt.qoi[f"lowest_k{k}"] for k in ks] for pt in path.points[:end]])
+    G = growth_exponents(d[:end], omega)
+    rows = []
+    for i in range(end):
+        lead = int(np.argmax(G[i]))
+        rows.append({"d_over_H": float(d[i] / case.H), "leading_k": ks[lead] if G[i, lead] > 0 else 0,
+                     "threshold": float(G[i, lead]), **{f"G_k{k}": float(G[i, j]) for j, k in enumerate(ks)}})
+    return {"rows": rows, "ks": ks, "until_d_over_H": float(d[end - 1] / case.H)}
+
+
+def draw_growth(case: Indentation, growth: dict, departures: list[dict], filename) -> None:
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    depths = [row["d_over_H"] for row in growth["rows"]]
+    for k in growth["ks"]:
+        G = np.array([row[f"G_k{k}"] for row in growth["rows"]])
+        if np.any(G > 0):
+            ax.semilogy(depths, np.where(G > 0, G, np.nan), "-", lw=1, label=f"k = {k}")
+    for dep in departures:
+        if dep.get("threshold"):
+            ax.plot(dep["d_over_H"], dep["threshold"], "ko", ms=4)
+            ax.annotate(f" k = {dep['k']}", (dep["d_over_H"], dep["threshold"]), fontsize=8)
+    ax.set_xlabel("d/H")
+    ax.set_ylabel("growth exponent G_k (depth in R)")
+    ax.set_title(f"H/R = {case.H:g}: growth of the unstable wave numbers on the axisymmetric path", fontsize=9)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(filename, dpi=130)
+    plt.close(fig)
+
+
+def departure(growth: dict, d_over_H: float) -> dict | None:
+    """The threshold ``T`` at which a stabilised run leaves the axisymmetric path at ``d_over_H``
+    and the wave number it shows (``growth_along_path``; ``G_k`` linear between the states).
+    None beyond the analysed path."""
+    rows = growth["rows"]
+    depths = np.array([row["d_over_H"] for row in rows])
+    if depths.size < 2 or not depths[0] <= d_over_H <= depths[-1]:
+        return None
+    G = np.array([np.interp(d_over_H, depths, [row[f"G_k{k}"] for row in rows]) for k in growth["ks"]])
+    order = np.argsort(G)[::-1]
+    return {"d_over_H": d_over_H, "threshold": float(G[order[0]]), "k": growth["ks"][order[0]] if G[order[0]] > 0 else 0,
+            "runner_up_k": growth["ks"][order[1]], "runner_up_ratio": float(G[order[1]] / G[order[0]]) if G[order[0]] > 0 else 0.0}
 
 
 def snap_drops(path: PathResult) -> list[dict]:
@@ -620,11 +681,17 @@ def draw_mu_change(case: Indentation, change: dict, filename) -> None:
 
 def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, step: float = 0.01,
         max_step: float = 0.04, fit_depth: float = 0.1, mu_at: float | None = None, mu_to: float | None = None,
-        mu_steps: int = 10, hold: str = "depth", progress=None) -> dict:
+        mu_steps: int = 10, hold: str = "depth", departures: tuple[float, ...] = (), progress=None) -> dict:
     """One indentation on the axisymmetric model; ``step``/``max_step`` in units of ``H``. With
     ``mu_at`` (depth / H) the indentation stops there and ``mu`` goes to ``mu_to`` in
-    ``mu_steps`` steps with the apex ``hold`` (``change_mu_axisymmetric``; ``mu_change.csv``)."""
+    ``mu_steps`` steps with the apex ``hold`` (``change_mu_axisymmetric``; ``mu_change.csv``).
+    ``departures`` (depths / H): the growth threshold of a stabilised run that leaves the
+    axisymmetric path there and the wave number it shows (``departure``; all states in
+    ``growth.csv``)."""
     check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, hold=hold)
+    bad = [d for d in departures if not (math.isfinite(d) and 0 < d <= case.depth)]
+    if bad:
+        raise ValueError(f"departure depths must lie in (0, depth = {case.depth}] (d/H), got {bad}")
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "kmax": kmax,
                                         "model": "axisymmetric", "t_over_r": THICKNESS_RATIO, "mu_at": mu_at,
@@ -647,7 +714,20 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
     }
     summary["first_nonaxisymmetric"] = first_nonaxisymmetric(cap, path, kmax=kmax)
     summary["negative_nonaxisymmetric_anywhere"] = bool(np.any(path.column("lowest_nonaxisymmetric") < 0))
-    if mu_to is not None and path.stop_reason == "target":
+    growth = growth_along_path(case, path)
+    with History(run_dir.file("growth.csv")) as table:
+        for row in growth["rows"]:
+            table.append(row)
+    summary["growth"] = {"until_d_over_H": growth["until_d_over_H"],
+                         "departures": [departure(growth, d) or {"d_over_H": d, "threshold": None,
+                                                                 "reason": "beyond the analysed path"}
+                                        for d in departures]}
+    if growth["rows"]:
+        draw_growth(case, growth, summary["growth"]["departures"], run_dir.file("growth.png"))
+    if mu_to is not None and path.stop_reason != "target":
+        summary["mu_change"] = {"hold": hold, "d_over_H": mu_at, "rows": [], "axisymmetric_stable": [],
+                                "stop_reason": f"not done: the path stopped before d/H = {mu_at} ({path.stop_reason})"}
+    elif mu_to is not None:
         end = path.points[-1]  # the bisection above moved the state: back to the path's end
         cap.problem.restore_state(end.state)
         cap.depth.Set(end.parameter)
@@ -951,6 +1031,9 @@ def main(argv=None) -> dict:
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
     parser.add_argument("--kmax", type=int, default=8)
     parser.add_argument("--fit-depth", type=float, default=0.1, help="fit the early response up to this d/H")
+    parser.add_argument("--departure", type=float, nargs="*", default=[],
+                        help="axisymmetric: d/H where a stabilised run is taken to leave the axisymmetric path "
+                             "(the growth threshold and wave number it implies)")
     args = parser.parse_args(argv)
     quick = quick_run(args)
     if args.model == "shell":
@@ -964,7 +1047,7 @@ def main(argv=None) -> dict:
     if not 0 < args.fit_depth <= 1:
         raise ValueError(f"fit-depth must be in (0, 1], got {args.fit_depth!r}")
     summary = run(case, res, args.out, kmax=args.kmax, fit_depth=args.fit_depth, mu_at=args.mu_at, mu_to=args.mu_to,
-                  mu_steps=args.mu_steps, hold=args.hold, progress=Progress("microlens"))
+                  mu_steps=args.mu_steps, hold=args.hold, departures=tuple(args.departure), progress=Progress("microlens"))
     first = summary["first_nonaxisymmetric"]
     print(f"H/R = {case.H}, {case.direction}: {summary['steps']} steps, events "
           f"{[(e['kind'], round(e['d_over_H'], 4)) for e in summary['events']]}, snaps "
@@ -973,6 +1056,10 @@ def main(argv=None) -> dict:
           f"{None if first is None else (first['k'], round(first['d_over_H'], 4))}, fit C = {summary['fit']['C']:.4g} "
           f"(misfit {summary['fit']['misfit']:.2g}), max |volume change| {summary['max_volume_change']:.2e}, "
           f"{summary['wall_s']:.1f} s")
+    for dep in summary["growth"]["departures"]:
+        print(f"leaving the axisymmetric path at d/H = {dep['d_over_H']}: "
+              + (f"threshold {dep['threshold']:.3e}, k = {dep['k']} (runner-up {dep['runner_up_k']}, "
+                 f"G ratio {dep['runner_up_ratio']:.3f})" if dep["threshold"] is not None else dep["reason"]))
     if "mu_change" in summary:
         change = summary["mu_change"]
         print(f"mu changed at d/H = {change['d_over_H']} holding the {change['hold']} ({change['stop_reason']}): "

@@ -63,6 +63,9 @@ def test_bad_input_is_rejected():
                             ({"mu_at": 0.5, "mu_to": -0.01, "mu_steps": 0}, "mu_steps")):
         with pytest.raises(ValueError, match=message):
             microlens.run_shell(case, res, "unused", **kwargs)
+    with pytest.raises(ValueError, match="departure depths must lie in"):
+        microlens.run(microlens.Indentation(H=0.3, depth=0.6), microlens.SectionResolution(), "unused",
+                      departures=(0.5, 0.7))
 
 
 def _cap_with_normal(half: bool):
@@ -207,10 +210,21 @@ def test_quick_run_leaves_the_axisymmetric_path_three_fold(tmp_path):
     # waves (Fitch: lambda = 14.08 > 13.5). The converged depth is d/H = 0.477 (h = 0.02, order 3,
     # same patch; with a 0.05 R patch h = 0.02 and 0.01 differ by 0.1 %): the coarse section must
     # be within 10 % of it.
-    summary = microlens.main(["--quick", "--out", str(tmp_path)])
+    summary = microlens.main(["--quick", "--out", str(tmp_path), "--departure", "0.3", "0.5", "0.6"])
     first = summary["first_nonaxisymmetric"]
     assert first is not None and first["k"] == 3
     assert first["d_over_H"] == pytest.approx(0.477, rel=0.1)
+    # A stabilised run without imperfection: nothing has grown before the onset; just past it the
+    # first wave number to lose stability leads (the limit of a vanishing growth threshold), and
+    # the threshold needed to stay axisymmetric longer rises with the depth
+    before, just_past, end = summary["growth"]["departures"]
+    assert before["threshold"] == 0 and before["k"] == 0
+    assert just_past["k"] == first["k"] and 0 < just_past["threshold"] < end["threshold"]
+    with open(tmp_path / "growth.csv") as f:
+        rows = list(csv.DictReader(f))
+    G = np.array([[float(row[f"G_k{k}"]) for k in range(1, 9)] for row in rows])
+    assert np.all(G >= 0) and np.all(np.diff(G, axis=0) >= 0)
+    assert np.all(G[[float(row["d_over_H"]) < first["d_over_H"] for row in rows]] == 0)
     # indentation at fixed mu hardly changes the gel volume (thesis: 0.2 % at most)
     assert summary["max_volume_change"] < 2e-3
     assert summary["snaps"] == [] and summary["force_maxima"] == []
