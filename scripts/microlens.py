@@ -69,7 +69,7 @@ from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
 from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_number  # noqa: E402
-from ngsgel.relaxation import settle_after  # noqa: E402
+from ngsgel.relaxation import settle, settle_after  # noqa: E402
 from ngsgel.shell import GelShell  # noqa: E402
 from ngsgel.stepping import RampError  # noqa: E402
 from ngsgel.stability import conjugate_force, growth_exponents  # noqa: E402
@@ -386,6 +386,63 @@ class ShellCap:
         return float(self._waves.bulges) if self._patterned() else 0.0
 
 
+def shell_qoi(cap: ShellCap) -> dict:
+    """The quantities a shell path records at every state."""
+    H = cap.case.H
+    return {"d_over_H": lambda: cap.depth.Get() / H, "d_over_R": cap.depth.Get, "mu": lambda: cap.shell.mu.Get(),
+            "force": cap.force,
+            "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
+            "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude, "dents": cap.dents,
+            "bulges": cap.bulges, "wave_centre": cap.wave_centre}
+
+
+def indent_axisymmetric_shell(cap: ShellCap, target: float, *, step: float, history=None, vtk=None,
+                              progress=None) -> PathResult:
+    """The shell pushed to the depth ``target`` along its axisymmetric branch: natural steps
+    without stability analysis, so the path stays on that branch past its bifurcations (nothing
+    but round-off seeds a non-axisymmetric mode, and Newton converges to the nearest equilibrium,
+    stable or not). A step Newton cannot make raises (``ContinuationError``)."""
+    return follow_path(cap.shell, cap.depth, method="natural", step=step, max_step=step, target=target,
+                       min_step=step / 16, qoi=shell_qoi(cap), history=history, vtk=vtk, progress=progress,
+                       newton_options={"reuse_factorisation": True})
+
+
+def check_polygon(k: int, amplitude: float) -> None:
+    if not (isinstance(k, int) and k >= 2):
+        raise ValueError(f"polygon must be an integer wave number >= 2, got {k!r}")
+    if not (math.isfinite(amplitude) and amplitude > 0):
+        raise ValueError(f"polygon amplitude must be a finite number > 0 (thicknesses), got {amplitude!r}")
+
+
+def push_into_polygon(cap: ShellCap, k: int, *, amplitude: float, progress=None) -> dict:
+    """Push the current (axisymmetric) state by a ``k``-fold normal deflection of ``amplitude``
+    thicknesses, ``cos(k theta) sin^2(pi s)`` (``s`` from 0 at the apex patch's rim to 1 at the base,
+    so the patch and the clamped base keep their values and slopes), and relax it at the current
+    load by the overdamped flow (``ngsgel.relaxation.settle``) to a stable state: the polygonal
+    state the cap holds at this depth, if that lies in the basin the push reaches. Returns the
+    record of the relaxation and of the state it ends in."""
+    check_polygon(k, amplitude)
+    case = cap.case
+    rho = ngs.sqrt(ngs.x * ngs.x + ngs.y * ngs.y)
+    a = cap.res.apex
+    s = (rho - a) / (1.0 - a)
+    normal = ngs.CF((ngs.x, ngs.y, ngs.z - (case.H - case.r))) / case.r
+    shape = ngs.IfPos(rho - a, ngs.sin(math.pi * s) ** 2, 0.0) * ngs.cos(k * ngs.atan2(ngs.y, ngs.x))
+    push = ngs.GridFunction(cap.shell.gf.components[0].space)
+    push.Set(amplitude * case.t * shape * normal, definedon=cap.mesh.Boundaries(".*"))
+    cap.shell.gf.components[0].vec.data += push.vec
+    k_pushed, amplitude_pushed = cap.update_waves(), cap.wave_amplitude()
+    clock = time.perf_counter()
+    settled = settle(cap.shell, parameter=cap.depth, progress=progress)
+    return {"k": k, "push_over_t": amplitude, "k_pushed": k_pushed, "amplitude_pushed_over_t": amplitude_pushed,
+            "d_over_H": cap.depth.Get() / case.H, "mu": cap.shell.mu.Get(), "force": cap.force(),
+            "k_after": cap.update_waves(), "amplitude_after_over_t": cap.wave_amplitude(),
+            "second_after": cap.second_wave(), "second_amplitude_after_over_t": cap.second_amplitude(),
+            "dents_after": cap.dents(), "energy_drop": settled.energy_drop, "distance": settled.distance,
+            "pseudo_time_steps": settled.steps, "rejected": settled.rejected,
+            "lowest_eigenvalue": settled.lowest_eigenvalue, "wall_s": time.perf_counter() - clock}
+
+
 def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step: float, max_step: float,
                  history=None, vtk=None, progress=None, stage: str = "indentation", checkpoint_file=None,
                  restart: Checkpoint | None = None) -> PathResult:
@@ -398,17 +455,12 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
-    qoi = {"d_over_H": lambda: cap.depth.Get() / case.H, "d_over_R": cap.depth.Get, "mu": lambda: cap.shell.mu.Get(),
-           "force": cap.force,
-           "volume_change": cap.volume_change, "k": cap.update_waves, "wave_amplitude_over_t": cap.wave_amplitude,
-           "k_second": cap.second_wave, "second_amplitude_over_t": cap.second_amplitude, "dents": cap.dents,
-           "bulges": cap.bulges, "wave_centre": cap.wave_centre}
     try:
         # a step cut to 1/16 of the first has met a state Newton cannot reach: stop there (stalled)
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
                            min_step=step / 16,
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
-                           qoi=qoi, history=history, vtk=vtk, progress=progress,
+                           qoi=shell_qoi(cap), history=history, vtk=vtk, progress=progress,
                            checkpoint_file=checkpoint_file, restart=restart,
                            # on an unstable branch: a change whose location or branch switch failed
                            stop=lambda pt: pt.negative > 0,
@@ -956,7 +1008,8 @@ def _hold_force(cap: AxisymmetricCap, force: float, *, step: float = 0.005, max_
 
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
               mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
-              snaps: int = 3, snap_tau: float | None = None, progress=None) -> dict:
+              snaps: int = 3, snap_tau: float | None = None, polygon: int | None = None, polygon_amplitude: float = 0.5,
+              progress=None) -> dict:
     """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
     indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth
     (``mu_at`` omitted with ``restart``: at the checkpoint's depth). ``mu_to`` may lie above the
@@ -964,14 +1017,23 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
     Where the path stalls, the cap snaps at the next depth (at most ``snaps`` times, first
     pseudo-time step ``snap_tau``; see ``follow_through_snaps``).
     Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
-    ``restart`` (such a file of the indentation) goes on from it."""
+    ``restart`` (such a file of the indentation) goes on from it.
+    ``polygon = k``: instead of following the path through its bifurcations, the cap is pushed to
+    ``mu_at`` on its axisymmetric branch and relaxed there from a ``k``-fold push of
+    ``polygon_amplitude`` thicknesses (``push_into_polygon``; ``path_axisymmetric.csv``,
+    ``polygon.json``), and ``mu`` changes from the state it lands in (``path.csv``)."""
     check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, restart=restart)
+    if polygon is not None:
+        if mu_at is None or restart is not None:
+            raise ValueError("polygon needs mu_at (the depth where the polygonal state is made) and no restart")
+        check_polygon(polygon, polygon_amplitude)
     checkpoint = None if restart is None else Checkpoint.load(restart)
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
                                         "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
                                         "mu_at": mu_at, "mu_to": mu_to, "mu_steps": mu_steps, "restart": restart,
-                                        "snaps": snaps, "snap_tau": snap_tau})
+                                        "snaps": snaps, "snap_tau": snap_tau, "polygon": polygon,
+                                        "polygon_amplitude": polygon_amplitude})
     cap = ShellCap(case, res)
     vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
     if mu_to is None:
@@ -979,16 +1041,33 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
     else:  # the checkpoint's own depth exactly: the indentation stage is then its one re-converged state
         depth_end = checkpoint.parameter if mu_at is None else mu_at * case.H
     snap_options = {"snaps": snaps, "tau": snap_tau, "vtk": vtk, "progress": progress, "run_dir": run_dir}
+    made = None
     with History(run_dir.file("path.csv")) as history:
-        stages = [("indentation", follow_through_snaps(cap, cap.depth, depth_end, step=step * case.H,
-                                                       max_step=max_step * case.H, history=history,
-                                                       restart=checkpoint, **snap_options))]
+        if polygon is None:
+            stages = [("indentation", follow_through_snaps(cap, cap.depth, depth_end, step=step * case.H,
+                                                           max_step=max_step * case.H, history=history,
+                                                           restart=checkpoint, **snap_options))]
+        else:
+            with History(run_dir.file("path_axisymmetric.csv")) as axisymmetric_history:  # no eigenvalue columns
+                stages = [("indentation", indent_axisymmetric_shell(cap, depth_end, step=step * case.H,
+                                                                    history=axisymmetric_history, vtk=vtk,
+                                                                    progress=progress))]
+            made = push_into_polygon(cap, polygon, amplitude=polygon_amplitude, progress=progress)
+            run_dir.write_json("polygon.json", made)
+            draw_deflection(cap, run_dir.file("shape_polygon.png"), title=f"relaxed from a {polygon}-fold push: "
+                                                                          f"{cap.state_label()}")
+            if progress is not None:
+                progress(f"pushed {polygon}-fold ({polygon_amplitude} t) at d/H {made['d_over_H']:.4f}: relaxed to k = "
+                         f"{made['k_after']:.0f} ({made['amplitude_after_over_t']:.3f} t), force {made['force']:.5g}, "
+                         f"lowest eigenvalue {made['lowest_eigenvalue']:.3g}, {made['wall_s']:.0f} s")
         if mu_to is not None and stages[0][1].stop_reason == "target":
             mu_step = abs(mu_to - case.mu) / mu_steps
             stages.append(("mu change", follow_through_snaps(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
                                                              history=history, checkpoint_name="mu_change.npz",
                                                              stage="mu change", **snap_options)))
     summary = shell_summary(case, cap, stages)
+    if made is not None:
+        summary["polygon"] = made
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
     draw_shell(case, stages[0][1], summary, run_dir.file("force_depth.png"))
@@ -1026,6 +1105,10 @@ def main(argv=None) -> dict:
                         help="shell: where the path stalls, relax to a stable state one step deeper, at most this often")
     parser.add_argument("--snap-tau", type=float, default=None,
                         help="shell: first pseudo-time step of that relaxation (default 1 / lowest eigenvalue)")
+    parser.add_argument("--polygon", type=int, default=None,
+                        help="shell, with --mu-at: push the cap to that depth on its axisymmetric branch and relax it "
+                             "there from a K-fold push (instead of following the bifurcations), then change mu")
+    parser.add_argument("--polygon-amplitude", type=float, default=0.5, help="... of this many thicknesses")
     parser.add_argument("--layers", type=int, default=2)
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
@@ -1077,7 +1160,8 @@ def main_shell(args, quick: bool) -> dict:
                           realcompile=not quick)
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
                         mu_at=args.mu_at, mu_to=args.mu_to, mu_steps=args.mu_steps, restart=args.restart, snaps=args.snaps,
-                        snap_tau=args.snap_tau, progress=Progress("microlens shell"))
+                        snap_tau=args.snap_tau, polygon=args.polygon, polygon_amplitude=args.polygon_amplitude,
+                        progress=Progress("microlens shell"))
     for name in ("indentation", "mu change"):
         if name in summary:
             stage = summary[name]

@@ -63,6 +63,11 @@ def test_bad_input_is_rejected():
                             ({"mu_at": 0.5, "mu_to": -0.01, "mu_steps": 0}, "mu_steps")):
         with pytest.raises(ValueError, match=message):
             microlens.run_shell(case, res, "unused", **kwargs)
+    for kwargs, message in (({"polygon": 4}, "polygon needs mu_at"),
+                            ({"mu_at": 0.5, "mu_to": -0.01, "polygon": 1}, "polygon must be an integer"),
+                            ({"mu_at": 0.5, "mu_to": -0.01, "polygon": 4, "polygon_amplitude": 0.0}, "polygon amplitude")):
+        with pytest.raises(ValueError, match=message):
+            microlens.run_shell(case, res, "unused", **kwargs)
     with pytest.raises(ValueError, match="departure depths must lie in"):
         microlens.run(microlens.Indentation(H=0.3, depth=0.6), microlens.SectionResolution(), "unused",
                       departures=(0.5, 0.7))
@@ -176,6 +181,24 @@ def test_lateral_shell_force_is_the_derivative_of_the_energy_and_tilts_the_cap()
         cap.shell.solve()
         energy.append(2.0 * cap.shell.energy() / cap.force_scale)
     assert force == pytest.approx((energy[0] - energy[1]) / (2 * delta), rel=1e-4)
+
+
+@pytest.mark.slow
+def test_a_push_from_a_stable_axisymmetric_state_relaxes_back_to_it():
+    # Coarse half cap (the --quick shell) at d/H = 0.3, stable: a 4-fold push of one thickness
+    # leaves the state and the overdamped flow returns it to the same equilibrium (within the
+    # basin), stable; the push itself is the 4-fold wave it was asked for.
+    case = microlens.Indentation(H=0.3, depth=0.3)
+    cap = microlens.ShellCap(case, microlens.ShellResolution(maxh=0.2, apex_maxh=0.05, order=2, realcompile=False))
+    path = microlens.indent_axisymmetric_shell(cap, 0.3 * case.H, step=0.1 * case.H)
+    assert path.stop_reason == "target"
+    before = cap.shell.save_state()
+    made = microlens.push_into_polygon(cap, 4, amplitude=1.0)
+    after = cap.shell.save_state()
+    assert made["k_pushed"] == 4 and made["amplitude_pushed_over_t"] > 0.5
+    assert made["lowest_eigenvalue"] > 0 and made["pseudo_time_steps"] > 0
+    assert np.linalg.norm(after - before) < 1e-6 * np.linalg.norm(before)
+    assert made["force"] == pytest.approx(path.points[-1].qoi["force"], rel=1e-6)  # as the state
 
 
 @pytest.mark.slow
