@@ -46,7 +46,7 @@ Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructe
     python scripts/microlens.py --out results/microlens --H 0.1 --depth 1.0 [--quick]
     python scripts/microlens.py --out results/microlens_out --H 0.2 --direction outward --depth 1.0
     python scripts/microlens.py --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
-    python scripts/microlens.py --out results/microlens_mu --maxh 0.02 --kmax 40 --mu-at 0.859 --mu-to=1.5e-4
+    python scripts/microlens.py --out results/microlens_mu --maxh 0.02 --mu-at 0.859 --mu-to=1.5e-4
     python scripts/microlens.py --out results/microlens_rise --model shell --mu-at 0.859 --mu-to=1.6e-4 --mu-steps 16 --polygon 4
 """
 
@@ -734,10 +734,12 @@ def draw_mu_change(case: Indentation, change: dict, filename) -> None:
 
 def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, step: float = 0.01,
         max_step: float = 0.04, fit_depth: float = 0.1, mu_at: float | None = None, mu_to: float | None = None,
-        mu_steps: int = 10, hold: str = "depth", departures: tuple[float, ...] = (), progress=None) -> dict:
+        mu_steps: int = 10, hold: str = "depth", mu_kmax: int = 40, departures: tuple[float, ...] = (),
+        progress=None) -> dict:
     """One indentation on the axisymmetric model; ``step``/``max_step`` in units of ``H``. With
     ``mu_at`` (depth / H) the indentation stops there and ``mu`` goes to ``mu_to`` in
-    ``mu_steps`` steps with the apex ``hold`` (``change_mu_axisymmetric``; ``mu_change.csv``).
+    ``mu_steps`` steps with the apex ``hold`` (``change_mu_axisymmetric``; ``mu_change.csv``),
+    scanning ``k <= mu_kmax`` (a rise wrinkles the clamped rim at k ~ 20-30, docs/microlens.md).
     ``departures`` (depths / H): the growth threshold of a stabilised run that leaves the
     axisymmetric path there and the wave number it shows (``departure``; all states in
     ``growth.csv``)."""
@@ -746,7 +748,7 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
     if bad:
         raise ValueError(f"departure depths must lie in (0, depth = {case.depth}] (d/H), got {bad}")
     start = time.perf_counter()
-    run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "kmax": kmax,
+    run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "kmax": kmax, "mu_kmax": mu_kmax,
                                         "model": "axisymmetric", "t_over_r": THICKNESS_RATIO, "mu_at": mu_at,
                                         "mu_to": mu_to, "mu_steps": mu_steps, "hold": hold})
     cap = AxisymmetricCap(case, res)
@@ -786,7 +788,7 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
         cap.depth.Set(end.parameter)
         cap.problem.solve()
         with History(run_dir.file("mu_change.csv")) as history:
-            rows, stop = change_mu_axisymmetric(cap, mu_to, steps=mu_steps, kmax=kmax, hold=hold, history=history,
+            rows, stop = change_mu_axisymmetric(cap, mu_to, steps=mu_steps, kmax=mu_kmax, hold=hold, history=history,
                                                 vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap_mu")),
                                                 progress=progress)
         summary["mu_change"] = {"hold": hold, "d_over_H": mu_at, "rows": rows, "stop_reason": stop,
@@ -1113,7 +1115,9 @@ def main(argv=None) -> dict:
     parser.add_argument("--layers", type=int, default=2)
     parser.add_argument("--order", type=int, default=3)
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
-    parser.add_argument("--kmax", type=int, default=8)
+    parser.add_argument("--kmax", type=int, default=8, help="wave numbers scanned along the axisymmetric path")
+    parser.add_argument("--mu-kmax", type=int, default=40,
+                        help="... and at every mu of a mu change (a rise wrinkles the clamped rim at k ~ 20-30)")
     parser.add_argument("--fit-depth", type=float, default=0.1, help="fit the early response up to this d/H")
     parser.add_argument("--departure", type=float, nargs="*", default=[],
                         help="axisymmetric: d/H where a stabilised run is taken to leave the axisymmetric path "
@@ -1126,11 +1130,14 @@ def main(argv=None) -> dict:
                        mu=args.mu, edge=args.edge, indenter=args.indenter)
     res = (SectionResolution(maxh=0.04, layers=2, order=2, apex=args.apex) if quick else
            SectionResolution(maxh=args.maxh or 0.01, layers=args.layers, order=args.order, apex=args.apex))
-    if not (isinstance(args.kmax, int) and 2 <= args.kmax <= 40):
-        raise ValueError(f"kmax must be an integer in [2, 40], got {args.kmax!r}")
+    for name in ("kmax", "mu_kmax"):
+        value = getattr(args, name)
+        if not (isinstance(value, int) and 2 <= value <= 60):
+            raise ValueError(f"{name} must be an integer in [2, 60], got {value!r}")
     if not 0 < args.fit_depth <= 1:
         raise ValueError(f"fit-depth must be in (0, 1], got {args.fit_depth!r}")
-    summary = run(case, res, args.out, kmax=args.kmax, fit_depth=args.fit_depth, mu_at=args.mu_at, mu_to=args.mu_to,
+    summary = run(case, res, args.out, kmax=args.kmax, mu_kmax=args.mu_kmax, fit_depth=args.fit_depth, mu_at=args.mu_at,
+                  mu_to=args.mu_to,
                   mu_steps=args.mu_steps, hold=args.hold, departures=tuple(args.departure), progress=Progress("microlens"))
     first = summary["first_nonaxisymmetric"]
     print(f"H/R = {case.H}, {case.direction}: {summary['steps']} steps, events "

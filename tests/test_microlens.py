@@ -68,6 +68,8 @@ def test_bad_input_is_rejected():
                             ({"mu_at": 0.5, "mu_to": -0.01, "polygon": 4, "polygon_amplitude": 0.0}, "polygon amplitude")):
         with pytest.raises(ValueError, match=message):
             microlens.run_shell(case, res, "unused", **kwargs)
+    with pytest.raises(ValueError, match="mu_kmax must be an integer in"):
+        microlens.main(["--mu-kmax", "1", "--out", "unused"])
     with pytest.raises(ValueError, match="departure depths must lie in"):
         microlens.run(microlens.Indentation(H=0.3, depth=0.6), microlens.SectionResolution(), "unused",
                       departures=(0.5, 0.7))
