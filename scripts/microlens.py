@@ -777,7 +777,7 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
                          "departures": [departure(growth, d) or {"d_over_H": d, "threshold": None,
                                                                  "reason": "beyond the analysed path"}
                                         for d in departures]}
-    if growth["rows"]:
+    if any(row["leading_k"] for row in growth["rows"]):  # something grew: a figure to draw
         draw_growth(case, growth, summary["growth"]["departures"], run_dir.file("growth.png"))
     if mu_to is not None and path.stop_reason != "target":
         summary["mu_change"] = {"hold": hold, "d_over_H": mu_at, "rows": [], "axisymmetric_stable": [],
