@@ -549,27 +549,28 @@ def growth_along_path(case: Indentation, path: PathResult) -> dict:
     where the largest ``G_k`` reaches ``T = c d' ln(A / a0)``, one number of the run: departing at
     depth ``d`` means ``T = max_k G_k(d)`` and the pattern seen first is its argmax. Rows: per
     path state on the path's first stretch of strictly increasing depth (the exponents need a
-    monotonic load), ``G_k``, the leading k and its ``G``."""
+    monotonic load), ``G_k``, the leading k and its ``G``; ``depths`` (d/H) and ``G`` as arrays."""
     d = path.column("d_over_H") * case.H
     end = next((i for i in range(1, d.size) if d[i] <= d[i - 1]), d.size)
     ks = sorted(int(name[len("lowest_k"):]) for name in path.points[0].qoi if name.startswith("lowest_k"))
+    depths = d[:end] / case.H
     if end < 2 or not ks:
-        return {"rows": [], "ks": ks, "until_d_over_H": float(d[end - 1] / case.H)}
+        return {"rows": [], "ks": ks, "depths": depths, "G": np.zeros((end, len(ks))),
+                "until_d_over_H": float(d[end - 1] / case.H)}
     omega = np.array([[pt.qoi[f"lowest_k{k}"] for k in ks] for pt in path.points[:end]])
     G = growth_exponents(d[:end], omega)
     rows = []
     for i in range(end):
         lead = int(np.argmax(G[i]))
-        rows.append({"d_over_H": float(d[i] / case.H), "leading_k": ks[lead] if G[i, lead] > 0 else 0,
+        rows.append({"d_over_H": float(depths[i]), "leading_k": ks[lead] if G[i, lead] > 0 else 0,
                      "threshold": float(G[i, lead]), **{f"G_k{k}": float(G[i, j]) for j, k in enumerate(ks)}})
-    return {"rows": rows, "ks": ks, "until_d_over_H": float(d[end - 1] / case.H)}
+    return {"rows": rows, "ks": ks, "depths": depths, "G": G, "until_d_over_H": float(d[end - 1] / case.H)}
 
 
 def draw_growth(case: Indentation, growth: dict, departures: list[dict], filename) -> None:
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    depths = [row["d_over_H"] for row in growth["rows"]]
-    for k in growth["ks"]:
-        G = np.array([row[f"G_k{k}"] for row in growth["rows"]])
+    depths = growth["depths"]
+    for k, G in zip(growth["ks"], growth["G"].T):
         if np.any(G > 0):
             ax.semilogy(depths, np.where(G > 0, G, np.nan), "-", lw=1, label=f"k = {k}")
     for dep in departures:
@@ -589,11 +590,10 @@ def departure(growth: dict, d_over_H: float) -> dict | None:
     """The threshold ``T`` at which a stabilised run leaves the axisymmetric path at ``d_over_H``
     and the wave number it shows (``growth_along_path``; ``G_k`` linear between the states).
     None beyond the analysed path."""
-    rows = growth["rows"]
-    depths = np.array([row["d_over_H"] for row in rows])
-    if depths.size < 2 or not depths[0] <= d_over_H <= depths[-1]:
+    depths = growth["depths"]
+    if not growth["rows"] or not depths[0] <= d_over_H <= depths[-1]:
         return None
-    G = np.array([np.interp(d_over_H, depths, [row[f"G_k{k}"] for row in rows]) for k in growth["ks"]])
+    G = np.array([np.interp(d_over_H, depths, column) for column in growth["G"].T])
     order = np.argsort(G)[::-1]
     return {"d_over_H": d_over_H, "threshold": float(G[order[0]]), "k": growth["ks"][order[0]] if G[order[0]] > 0 else 0,
             "runner_up_k": growth["ks"][order[1]], "runner_up_ratio": float(G[order[1]] / G[order[0]]) if G[order[0]] > 0 else 0.0}
