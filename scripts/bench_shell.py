@@ -292,16 +292,17 @@ def _axis_vertex(mesh: ngs.Mesh, axis: int, radius: float) -> tuple[float, float
     return tuple(points[best])
 
 
-def graded_gel(p: float) -> tuple[FloryRehnerGel, float]:
+def graded_gel(p: float, *, n0: float = GRADED_N0, nR: float = GRADED_NR) -> tuple[FloryRehnerGel, float]:
     """The graded gel of exponent ``p`` (``Nv`` a field of x, y) and the reference stretch: the
     stiff gel's free swelling at ``GRADED_MU0`` (as ``graded_plate.build``, MODEL.md 2)."""
-    stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=GEL.chi)
-    gel = FloryRehnerGel(Nv=radial_grading(GRADED_N0, GRADED_NR, p, 1.0), chi=GEL.chi)
+    stiff = FloryRehnerGel(Nv=max(n0, nR), chi=GEL.chi)
+    gel = FloryRehnerGel(Nv=radial_grading(n0, nR, p, 1.0), chi=GEL.chi)
     return gel, stiff.lam_free(GRADED_MU0)
 
 
 def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T, realcompile: bool = False,
-                       half: bool = False) -> tuple[GelShell, ngs.Mesh, list]:
+                       half: bool = False, n0: float = GRADED_N0,
+                       nR: float = GRADED_NR) -> tuple[GelShell, ngs.Mesh, list]:
     """The graded disk (thickness ``t``) as a ``GelShell`` on the full disk at ``mu0`` (not yet solved): graded
     ``Nv`` as a field, the stiff gel's free-swelling reference (as the axisymmetric section of
     ``graded_plate.build``). Rigid motions are removed by six statically determinate pins
@@ -312,7 +313,7 @@ def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T
     is excluded); three pins (centre: x, z; the x-axis vertex: z).
     Returns the shell, the mesh and the off-centre pin points."""
     mesh = split_disk(maxh=maxh, curve_order=order, half=half)
-    gel, lam0 = graded_gel(p)
+    gel, lam0 = graded_gel(p, n0=n0, nR=nR)
     shell = GelShell(mesh, material=gel, lam0=lam0, thickness=t, mu=GRADED_MU0, order=order,
                      realcompile=realcompile)
     if half:

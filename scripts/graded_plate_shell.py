@@ -120,7 +120,15 @@ def pattern_depth(shell, mesh: ngs.Mesh, k: int, *, half: bool, radii: np.ndarra
             "radii": radii.tolist(), "amplitude": amplitude.tolist()}
 
 
-def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order: int = 3, step: float = 0.05,
+def check_grading(n0: float, nR: float) -> None:
+    """Bad ``Nv`` values raise before any work."""
+    for name, value in (("n0", n0), ("nR", nR)):
+        if not 0 < value < 0.5:
+            raise ValueError(f"{name} (Nv) must be in (0, 0.5), got {value!r}")
+
+
+def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_NR, t: float = 0.01,
+        maxh: float = 0.2, order: int = 3, step: float = 0.05,
         max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = MU_START,
         maxit: int | None = None, half: bool = True, switch_all: bool = False, through_snaps: bool = True,
         snap_overshoot: float = 1e-3, jump_ratio: float | None = None, quick: bool = False) -> dict:
@@ -144,7 +152,10 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     along the critical mode, relaxed by the overdamped flow to a stable state, reported in
     ``events.json`` as "snap") and the next leg follows the branch it lands on. ``jump_ratio``:
     those natural legs also refuse a step that converged farther from its predictor than this
-    many predicted increments (``follow_path``'s ``max_correction``: a jump onto another branch)."""
+    many predicted increments (``follow_path``'s ``max_correction``: a jump onto another branch).
+    ``n0``, ``nR``: ``Nv`` at the centre and the rim (MODEL.md 5 C; the thesis's text gives both
+    divided by 3, its ch. 5.2)."""
+    check_grading(n0, nR)
     if through_snaps and switch_all:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
     if not snap_overshoot > 0:
@@ -157,7 +168,7 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     if through_snaps and not snap_overshoot > 2 * step / MIN_STEP_DIVISOR:  # only snapping legs use it
         raise ValueError(f"snap_overshoot must exceed 2 step / {MIN_STEP_DIVISOR} = {2 * step / MIN_STEP_DIVISOR:g} "
                          f"(the resolution of a stalled natural leg), got {snap_overshoot!r}")
-    params = dict(p=p, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
+    params = dict(p=p, n0=n0, nR=nR, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
                   switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot,
                   jump_ratio=jump_ratio, quick=quick,
@@ -165,7 +176,8 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     run_dir = RunDirectory(out, params=params)
     progress = Progress("graded_plate_shell")
     start = time.perf_counter()
-    shell, mesh, pins = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=half)
+    shell, mesh, pins = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=half,
+                                           n0=n0, nR=nR)
     rim = RimWaves(shell, mesh, half=half)
     if mu_start is not None:
         ramp(shell, shell.mu, mu_start, step=0.25)
@@ -257,7 +269,8 @@ def run(out: str, *, p: float = 10.0, t: float = 0.01, maxh: float = 0.2, order:
     return summary
 
 
-def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, t: float = 0.01, maxh: float = 0.2,
+def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, n0: float = GRADED_N0, nR: float = GRADED_NR,
+                   t: float = 0.01, maxh: float = 0.2,
                    order: int = 3, mu_start: float = MU_START, step: float = 0.01,
                    realcompile: bool = True) -> dict:
     """Whether the wave number ``k`` is a stable pattern of the disk at ``mu = 0`` when a run is
@@ -277,12 +290,14 @@ def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, t: float =
         raise ValueError(f"load must be > 0, got {load!r}")
     if not mu_start < 0:
         raise ValueError(f"mu_start must be < 0, got {mu_start!r}")
-    run_dir = RunDirectory(out, params=dict(p=p, k=k, load=load, t=t, maxh=maxh, order=order, mu_start=mu_start,
+    check_grading(n0, nR)
+    run_dir = RunDirectory(out, params=dict(p=p, k=k, load=load, n0=n0, nR=nR, t=t, maxh=maxh, order=order, mu_start=mu_start,
                                             step=step, realcompile=realcompile, mode="seeded pattern"))
     progress = Progress(f"seeded k = {k}, p = {p:g}")
     start = time.perf_counter()
-    shell, mesh, _ = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=True)
-    stiff = FloryRehnerGel(Nv=max(GRADED_N0, GRADED_NR), chi=shell.material.chi)
+    shell, mesh, _ = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=True,
+                                        n0=n0, nR=nR)
+    stiff = FloryRehnerGel(Nv=max(n0, nR), chi=shell.material.chi)
     scale = ngs.Parameter(1.0)
     r = ngs.sqrt(ngs.x * ngs.x + ngs.y * ngs.y)
     q = load * stiff.shear_modulus(shell.lam0) * t**3 / 6 * ngs.cos(k * ngs.atan2(ngs.y, ngs.x)) * r**k
@@ -358,6 +373,8 @@ def main(argv=None) -> dict:
                           quick=f"half disk, h = 0.2, from mu = {MU_START} through the first switch onto the "
                                 "saddle, 8 steps, no C++ compile (about 2 min)")
     parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
+    parser.add_argument("--n0", type=float, default=GRADED_N0, help="Nv at the centre")
+    parser.add_argument("--nR", type=float, default=GRADED_NR, help="Nv at the rim")
     parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
     parser.add_argument("--maxh", type=float, default=0.2, help="shell mesh size")
     parser.add_argument("--order", type=int, default=3)
@@ -384,13 +401,14 @@ def main(argv=None) -> dict:
                              "their predictor (a jump onto another branch); default: no such check")
     args = parser.parse_args(argv)
     if args.seed_wave is not None:
-        summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, t=args.t,
+        summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, n0=args.n0, nR=args.nR,
+                                 t=args.t,
                                  maxh=args.maxh, order=args.order, realcompile=not args.no_realcompile,
                                  mu_start=args.mu_start)
         print(json.dumps({k: v for k, v in summary.items() if k not in ("rim_with_seed", "penetration_depth")},
                          default=str, indent=1))
         return summary
-    summary = run(args.out, p=args.p, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
+    summary = run(args.out, p=args.p, n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
                   max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
                   maxit=args.maxit, half=args.half,
                   switch_all=args.switch_all, through_snaps=not (args.switch_all or args.no_snaps),

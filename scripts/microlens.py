@@ -408,7 +408,10 @@ def indent_axisymmetric_shell(cap: ShellCap, target: float, *, step: float, hist
                        newton_options={"reuse_factorisation": True})
 
 
-def check_polygon(k: int, amplitude: float) -> None:
+def check_polygon(k: int, amplitude: float, *, at: float | None = None, depth: float | None = None) -> None:
+    """Bad input of a polygonal push (``at``, ``depth``: its depth / H and the run's final one)."""
+    if at is not None and not 0 < at <= depth:
+        raise ValueError(f"polygon_at (depth / H) must be in (0, depth = {depth}], got {at!r}")
     if not (isinstance(k, int) and k >= 2):
         raise ValueError(f"polygon must be an integer wave number >= 2, got {k!r}")
     if not (math.isfinite(amplitude) and amplitude > 0):
@@ -902,7 +905,7 @@ def draw_deflection(cap: ShellCap, filename, *, title: str) -> None:
     plt.close(fig)
 
 
-def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> None:
+def draw_shell(case: Indentation, path: PathResult, event_depths: list[float], filename) -> None:
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
     column = case.depth_column
     scale = 1.0 if column == "d_over_H" else case.H  # events are stored in d/H
@@ -911,8 +914,8 @@ def draw_shell(case: Indentation, path: PathResult, summary: dict, filename) -> 
     for kk in sorted(set(k.astype(int))):
         sel = k == kk
         ax.plot(d[sel], f[sel], "o", ms=3, label="axisymmetric" if kk == 0 else f"k = {kk} (dominant wave)")
-    for ev in summary["indentation"]["events"]:
-        ax.axvline(ev["d_over_H"] * scale, color="tab:blue", lw=0.6, ls=":")
+    for d_over_H in event_depths:
+        ax.axvline(d_over_H * scale, color="tab:blue", lw=0.6, ls=":")
     finish_force_figure(fig, ax, bx, path, f"shell, H/R = {case.H:g}, {case.direction}", filename, column=column)
 
 
@@ -1011,8 +1014,8 @@ def _hold_force(cap: AxisymmetricCap, force: float, *, step: float = 0.005, max_
 
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
               mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
-              snaps: int = 3, snap_tau: float | None = None, polygon: int | None = None, polygon_amplitude: float = 0.5,
-              progress=None) -> dict:
+              snaps: int = 3, snap_tau: float | None = None, polygon: int | None = None, polygon_at: float | None = None,
+              polygon_amplitude: float = 0.5, progress=None) -> dict:
     """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
     indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth
     (``mu_at`` omitted with ``restart``: at the checkpoint's depth). ``mu_to`` may lie above the
@@ -1022,24 +1025,32 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
     Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
     ``restart`` (such a file of the indentation) goes on from it.
     ``polygon = k``: instead of following the path through its bifurcations, the cap is pushed to
-    ``mu_at`` on its axisymmetric branch and relaxed there from a ``k``-fold push of
-    ``polygon_amplitude`` thicknesses (``push_into_polygon``; ``path_axisymmetric.csv``,
-    ``polygon.json``), and ``mu`` changes from the state it lands in (``path.csv``)."""
-    check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, restart=restart)
+    ``polygon_at`` (depth / H) on its axisymmetric branch and relaxed there from a ``k``-fold push
+    of ``polygon_amplitude`` thicknesses (``push_into_polygon``; ``path_axisymmetric.csv``,
+    ``polygon.json``); from the state it lands in ``mu`` changes (with ``mu_to``, at that depth)
+    or the indentation goes on to ``case.depth`` (``path.csv``)."""
     if polygon is not None:
-        if mu_at is None or restart is not None:
-            raise ValueError("polygon needs mu_at (the depth where the polygonal state is made) and no restart")
-        check_polygon(polygon, polygon_amplitude)
+        if polygon_at is None or mu_at is not None or restart is not None:
+            raise ValueError("polygon needs polygon_at (the depth / H where the polygonal state is made; a mu "
+                             "change with mu_to happens there), and neither mu_at nor restart")
+        check_polygon(polygon, polygon_amplitude, at=polygon_at, depth=case.depth)
+        if mu_to is not None:
+            mu_at = polygon_at
+    elif polygon_at is not None:
+        raise ValueError("polygon_at needs polygon (the wave number of the push)")
+    check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, restart=restart)
     checkpoint = None if restart is None else Checkpoint.load(restart)
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "model": "shell",
                                         "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
                                         "mu_at": mu_at, "mu_to": mu_to, "mu_steps": mu_steps, "restart": restart,
                                         "snaps": snaps, "snap_tau": snap_tau, "polygon": polygon,
-                                        "polygon_amplitude": polygon_amplitude})
+                                        "polygon_at": polygon_at, "polygon_amplitude": polygon_amplitude})
     cap = ShellCap(case, res)
     vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
-    if mu_to is None:
+    if polygon is not None:
+        depth_end = polygon_at * case.H
+    elif mu_to is None:
         depth_end = case.depth * case.H
     else:  # the checkpoint's own depth exactly: the indentation stage is then its one re-converged state
         depth_end = checkpoint.parameter if mu_at is None else mu_at * case.H
@@ -1052,7 +1063,7 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
                                                            restart=checkpoint, **snap_options))]
         else:
             with History(run_dir.file("path_axisymmetric.csv")) as axisymmetric_history:  # no eigenvalue columns
-                stages = [("indentation", indent_axisymmetric_shell(cap, depth_end, step=step * case.H,
+                stages = [("axisymmetric push", indent_axisymmetric_shell(cap, depth_end, step=step * case.H,
                                                                     history=axisymmetric_history, vtk=vtk,
                                                                     progress=progress))]
             made = push_into_polygon(cap, polygon, amplitude=polygon_amplitude, progress=progress)
@@ -1063,6 +1074,10 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
                 progress(f"pushed {polygon}-fold ({polygon_amplitude} t) at d/H {made['d_over_H']:.4f}: relaxed to k = "
                          f"{made['k_after']:.0f} ({made['amplitude_after_over_t']:.3f} t), force {made['force']:.5g}, "
                          f"lowest eigenvalue {made['lowest_eigenvalue']:.3g}, {made['wall_s']:.0f} s")
+            if mu_to is None and polygon_at < case.depth:  # on along the polygonal branch
+                stages.append(("indentation", follow_through_snaps(cap, cap.depth, case.depth * case.H,
+                                                                   step=step * case.H, max_step=max_step * case.H,
+                                                                   history=history, **snap_options)))
         if mu_to is not None and stages[0][1].stop_reason == "target":
             mu_step = abs(mu_to - case.mu) / mu_steps
             stages.append(("mu change", follow_through_snaps(cap, cap.shell.mu, mu_to, step=mu_step, max_step=mu_step,
@@ -1073,7 +1088,12 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
         summary["polygon"] = made
     summary["wall_s"] = time.perf_counter() - start
     run_dir.write_json("summary.json", summary)
-    draw_shell(case, stages[0][1], summary, run_dir.file("force_depth.png"))
+    depth_stages = [(name, path) for name, path in stages if name != "mu change"]
+    joined = PathResult([pt for _, path in depth_stages for pt in path.points],
+                        [ev for _, path in depth_stages for ev in path.events],
+                        depth_stages[-1][1].stop_reason, depth_stages[-1][1].checkpoint)
+    draw_shell(case, joined, [ev["d_over_H"] for name, _ in depth_stages for ev in summary[name]["events"]],
+               run_dir.file("force_depth.png"))
     cap.update_waves()
     draw_deflection(cap, run_dir.file("shape_end.png"), title=f"end: {cap.state_label()}")
     return summary
@@ -1109,8 +1129,10 @@ def main(argv=None) -> dict:
     parser.add_argument("--snap-tau", type=float, default=None,
                         help="shell: first pseudo-time step of that relaxation (default 1 / lowest eigenvalue)")
     parser.add_argument("--polygon", type=int, default=None,
-                        help="shell, with --mu-at: push the cap to that depth on its axisymmetric branch and relax it "
-                             "there from a K-fold push (instead of following the bifurcations), then change mu")
+                        help="shell, with --polygon-at: push the cap to that depth on its axisymmetric branch and relax "
+                             "it there from a K-fold push (instead of following the bifurcations), then change mu "
+                             "(with --mu-to) or go on to --depth")
+    parser.add_argument("--polygon-at", type=float, default=None, help="... the depth / H of that push")
     parser.add_argument("--polygon-amplitude", type=float, default=0.5, help="... of this many thicknesses")
     parser.add_argument("--layers", type=int, default=2)
     parser.add_argument("--order", type=int, default=3)
@@ -1126,6 +1148,8 @@ def main(argv=None) -> dict:
     quick = quick_run(args)
     if args.model == "shell":
         return main_shell(args, quick)
+    if args.polygon is not None or args.polygon_at is not None:
+        raise ValueError("polygon and polygon_at need the shell model (--model shell)")
     case = Indentation(H=0.3 if quick else args.H, direction=args.direction, depth=0.6 if quick else args.depth,
                        mu=args.mu, edge=args.edge, indenter=args.indenter)
     res = (SectionResolution(maxh=0.04, layers=2, order=2, apex=args.apex) if quick else
@@ -1168,9 +1192,10 @@ def main_shell(args, quick: bool) -> dict:
                           realcompile=not quick)
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
                         mu_at=args.mu_at, mu_to=args.mu_to, mu_steps=args.mu_steps, restart=args.restart, snaps=args.snaps,
-                        snap_tau=args.snap_tau, polygon=args.polygon, polygon_amplitude=args.polygon_amplitude,
+                        snap_tau=args.snap_tau, polygon=args.polygon, polygon_at=args.polygon_at,
+                        polygon_amplitude=args.polygon_amplitude,
                         progress=Progress("microlens shell"))
-    for name in ("indentation", "mu change"):
+    for name in ("axisymmetric push", "indentation", "mu change"):
         if name in summary:
             stage = summary[name]
             print(f"{name}: {stage['steps']} steps ({stage['stop_reason']}), events "

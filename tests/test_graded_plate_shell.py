@@ -77,3 +77,13 @@ def test_a_non_positive_jump_ratio_is_rejected_before_work(tmp_path, ratio):
     with pytest.raises(ValueError, match="jump_ratio must"):
         graded_plate_shell.run(str(tmp_path), jump_ratio=ratio)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("grading, match", [({"n0": 0.0}, "n0 \\(Nv\\) must be"), ({"nR": -1e-3}, "nR \\(Nv\\) must be"),
+                                            ({"nR": 0.5}, "nR \\(Nv\\) must be")])
+def test_a_bad_cross_link_grading_is_rejected_before_work(tmp_path, grading, match):
+    with pytest.raises(ValueError, match=match):
+        graded_plate_shell.run(str(tmp_path / "run"), **grading)
+    with pytest.raises(ValueError, match=match):
+        graded_plate_shell.seeded_pattern(str(tmp_path / "seeded"), p=10.0, k=8, **grading)
+    assert not any(tmp_path.iterdir())

@@ -63,11 +63,17 @@ def test_bad_input_is_rejected():
                             ({"mu_at": 0.5, "mu_to": -0.01, "mu_steps": 0}, "mu_steps")):
         with pytest.raises(ValueError, match=message):
             microlens.run_shell(case, res, "unused", **kwargs)
-    for kwargs, message in (({"polygon": 4}, "polygon needs mu_at"),
-                            ({"mu_at": 0.5, "mu_to": -0.01, "polygon": 1}, "polygon must be an integer"),
-                            ({"mu_at": 0.5, "mu_to": -0.01, "polygon": 4, "polygon_amplitude": 0.0}, "polygon amplitude")):
+    for kwargs, message in (({"polygon": 4}, "polygon needs polygon_at"),
+                            ({"polygon": 4, "polygon_at": 0.5, "mu_at": 0.5, "mu_to": -0.01}, "neither mu_at"),
+                            ({"polygon_at": 0.5}, "polygon_at needs polygon"),
+                            ({"polygon": 4, "polygon_at": 1.2}, "polygon_at .* must be in \\(0, depth = 1.0\\]"),
+                            ({"polygon_at": 0.5, "mu_to": -0.01, "polygon": 1}, "polygon must be an integer"),
+                            ({"polygon_at": 0.5, "mu_to": -0.01, "polygon": 4, "polygon_amplitude": 0.0},
+                             "polygon amplitude")):
         with pytest.raises(ValueError, match=message):
             microlens.run_shell(case, res, "unused", **kwargs)
+    with pytest.raises(ValueError, match="need the shell model"):
+        microlens.main(["--polygon", "4", "--polygon-at", "0.5", "--out", "unused"])
     with pytest.raises(ValueError, match="mu_kmax must be an integer in"):
         microlens.main(["--mu-kmax", "1", "--out", "unused"])
     with pytest.raises(ValueError, match="departure depths must lie in"):
@@ -201,6 +207,25 @@ def test_a_push_from_a_stable_axisymmetric_state_relaxes_back_to_it():
     assert made["lowest_eigenvalue"] > 0 and made["pseudo_time_steps"] > 0
     assert np.linalg.norm(after - before) < 1e-6 * np.linalg.norm(before)
     assert made["force"] == pytest.approx(path.points[-1].qoi["force"], rel=1e-6)  # as the state
+
+
+@pytest.mark.slow
+def test_a_polygonal_push_goes_on_along_the_path_from_the_state_it_relaxes_to(tmp_path):
+    # --polygon without a mu change: the coarse half cap is pushed to d/H = 0.2 (stable there),
+    # relaxes back onto its axisymmetric state and the indentation goes on from it to the final
+    # depth with the stability analysis of the ordinary path.
+    summary = microlens.main(["--model", "shell", "--quick", "--polygon", "4", "--polygon-at", "0.2",
+                              "--polygon-amplitude", "1", "--out", str(tmp_path)])
+    push, made, go_on = summary["axisymmetric push"], summary["polygon"], summary["indentation"]
+    assert push["stop_reason"] == "target" and go_on["stop_reason"] == "target" and go_on["events"] == []
+    assert made["k_pushed"] == 4 and made["lowest_eigenvalue"] > 0
+    with open(tmp_path / "path.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == go_on["steps"] + 1  # the relaxed state, then one row per step
+    start, end = rows[0], rows[-1]
+    assert float(start["d_over_H"]) == pytest.approx(0.2) and float(end["d_over_H"]) == pytest.approx(0.3)
+    assert float(start["force"]) == pytest.approx(made["force"], rel=1e-6)
+    assert float(end["force"]) > float(start["force"]) and int(end["negative"]) == 0
 
 
 @pytest.mark.slow
