@@ -131,6 +131,14 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     omega = float(first.eigenvalues[0])
     tau0 = tau if tau is not None else (0.5 / abs(omega) if omega < 0 else 1.0 / omega)
     tau = tau0
+    # While the state is unstable, K + M / tau must stay positive definite (tau below 1 / |omega|
+    # of the lowest eigenvalue): then every step descends along the unstable modes, whose
+    # amplitude grows by 1 / (1 - tau |omega|) per step. A larger tau turns the steps into Newton
+    # steps, which run back onto the unstable equilibrium wherever the energy is too flat to refuse
+    # them (measured: a column just past Euler kicked by 1e-5, energy changes of 1e-15).
+    tau_cap = 0.5 / abs(omega) if first.negative else math.inf
+    tau = min(tau, tau_cap)
+    free_mass = None
 
     target = x.CreateVector()
     problem.prescribed(target)
@@ -163,6 +171,19 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     rnorm = free_norm(r)
     r_max = rnorm
 
+    def instability_cap() -> float:
+        """``0.5 / |omega|`` of the current state's lowest eigenvalue if it is unstable, else inf;
+        the tangent is kept for the next step."""
+        nonlocal free_mass
+        state = x.FV().NumPy()
+        if "state" not in tangent or not np.array_equal(tangent["state"], state):
+            K = problem.tangent(x)
+            tangent.update(state=state.copy(), matrix=K, values=K.AsVector().FV().NumPy().copy())
+        if free_mass is None:
+            free_mass = free_matrix(mass, free)
+        lowest = spectrum(problem, count=1, K=free_matrix(tangent["matrix"], free), M=free_mass, past_negative=True)
+        return 0.5 / abs(float(lowest.eigenvalues[0])) if lowest.negative else math.inf
+
     def stable_end() -> SettleResult:
         K = free_matrix(problem.tangent(x), free)
         result.negative = negative_count(K)
@@ -175,7 +196,11 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
 
     while True:
         if rnorm <= max(atol, rtol * r_max):
-            return stable_end()
+            if tau_cap < math.inf:  # next to an unstable equilibrium a small residual is not the end
+                tau_cap = instability_cap()
+                tau = min(tau, tau_cap)
+            if tau_cap == math.inf:
+                return stable_end()
         if result.steps >= max_steps:
             raise SettleError(f"no stable equilibrium after {max_steps} pseudo-time steps (residual {rnorm:.3e}, "
                               f"energy drop {result.energy_start - energy:.3e}, tau {tau:.3e})", result)
@@ -221,6 +246,9 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
             tau *= grow
         elif ratio < 0.1:
             tau /= 2
+        if tau > tau_cap:  # still unstable here? (the cap goes once the state is stable)
+            tau_cap = instability_cap()
+            tau = min(tau, tau_cap)
 
 
 def _push_and_settle(problem, parameter: ngs.Parameter, state: np.ndarray, mode: np.ndarray | None, load: float, *,

@@ -94,6 +94,30 @@ def test_straight_column_past_euler_settles_on_the_buckled_branch():
     assert straight.energy() == pytest.approx(buckled.energy, rel=1e-9)
 
 
+def test_a_tiny_kick_next_to_a_flat_saddle_leaves_it_for_the_buckled_state():
+    # Just past Euler (1 % over, lowest eigenvalue -1.9e-7) a kick of 1e-5 changes the energy by
+    # ~1e-15: too little for the energy test to refuse a step back. Before the pseudo-time step
+    # was held below 1 / |omega| while the state is unstable, the flow ran back onto the straight
+    # state (300 steps without reaching an equilibrium, measured); now it must find the buckled
+    # state that a 100x larger kick reaches.
+    tips = []
+    for amplitude in (1e-3, 1e-5):
+        straight, load, tip = column(12, control="displacement")
+        load.Set(1.01)
+        straight.solve()
+        lowest = spectrum(straight, count=1)
+        assert lowest.negative == 1 and -1e-6 < lowest.eigenvalues[0] < 0
+        kicked = straight.save_state()
+        kicked[straight.free_mask] += amplitude * lowest.modes[:, 0]
+        straight.restore_state(kicked)
+        result = settle(straight)
+        assert result.negative == 0 and result.lowest_eigenvalue > 0
+        assert np.all(np.diff(result.energies) <= 1e-10 * abs(result.energy_start))
+        tips.append(abs(tip()))
+    assert tips[0] > 0.1  # buckled (0.118)
+    assert tips[1] == pytest.approx(tips[0], rel=1e-8)
+
+
 def test_a_stable_equilibrium_stays_where_it_is():
     prob, load, w = arch()
     ramp(prob, load, 0.02, step=0.01)
