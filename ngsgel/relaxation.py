@@ -70,7 +70,10 @@ def settle(problem, *, parameter: ngs.Parameter | None = None, tau: float | None
     start; ``1 / omega_min`` at a stable start). A step is refused (``tau`` / 4) when its state is
     not admissible or its energy is above the current one by more than round-off; a kept step
     multiplies ``tau`` by ``grow`` when the energy fell by at least half of what the quadratic
-    model predicted, and divides it by 2 when by less than a tenth. Converged when the free
+    model predicted, and divides it by 2 when by less than a tenth; while the state is unstable it
+    stays below ``0.5 / |omega_min|`` of the current state (checked where it would pass that bound),
+    so that the flow leaves an unstable equilibrium even where the energy is too flat to measure
+    the descent (a small residual there is not convergence). Converged when the free
     residual is below ``max(atol, rtol * r_max)`` (``r_max`` the largest residual seen) or the
     next step changes no entry by more than ``xtol`` (length units; default the problem's
     ``newton_xtol`` if it has one, else 1e-13), at a state whose tangent has
