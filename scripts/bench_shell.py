@@ -332,23 +332,46 @@ def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T
     return shell, mesh, [on_x, on_y]
 
 
+def odd_free_mask(shell: GelShell, mesh: ngs.Mesh) -> np.ndarray:
+    """Free dofs of the half disk's perturbations odd in y (``graded_plate_shell(half=True)``): on
+    the cut ``u_x = w = 0`` and the rotation about it free (the mirror images of the symmetry
+    conditions), and the odd rigid motions (translation along y, rotation about z and about x)
+    held by ``u_y`` at the centre and at the x-axis pin and ``w`` at the y-axis vertex at
+    ``PIN_RADIUS``. The tangent of a state even in y restricted to these dofs is the full disk's
+    tangent for the modes the half disk excludes (``sin k theta`` deflections)."""
+    V = ngs.VectorH1(mesh, order=shell.order, dirichletx_bbnd="cut", dirichletz_bbnd="cut")
+    others = [ngs.NormalFacetSurface(mesh, order=shell.order - 1)]
+    others += [ngs.SurfaceL2(mesh, order=shell.order - 1)] * (len(shell.space.components) - 2)
+    odd_space = ngs.FESpace([V] + others)
+    if odd_space.ndof != shell.space.ndof:
+        raise ValueError("the shell's space is not the half disk's (VectorH1, NormalFacetSurface, SurfaceL2 ...)")
+    mask = np.array(list(odd_space.FreeDofs()), dtype=bool)
+    pins = [((0.0, 0.0, 0.0), 1), (_axis_vertex(mesh, 0, PIN_RADIUS), 1), (_axis_vertex(mesh, 1, PIN_RADIUS), 2)]
+    for point, component in pins:
+        mask[shell._vertex_dofs(shell._vertex(point))[component]] = False
+    return mask
+
+
 def disk_circle_values(field: ngs.CoefficientFunction, mesh: ngs.Mesh, *, radius: float, n: int,
-                       half: bool = False) -> np.ndarray:
+                       half: bool = False, odd: bool = False) -> np.ndarray:
     """``field`` at ``theta_i = 2 pi i / n`` on a circle about the centre of a disk mid-surface;
     ``half``: the mesh is the half y >= 0 of a mirror-symmetric disk, ``field(theta) = field(-theta)``
-    (a scalar even in y, e.g. the deflection)."""
+    (a scalar even in y, e.g. the deflection), or with ``odd`` ``-field(-theta)`` (the deflection
+    of a mode odd in y)."""
     if not half:
         return sample_on_circle(field, mesh, center=(0.0, 0.0, 0.0), radius=radius, n=n).values
     theta = 2.0 * np.pi * np.arange(n) / n
-    return np.array([field(mesh(radius * math.cos(a), abs(radius * math.sin(a)), 0.0, ngs.BND)) for a in theta])
+    sign = [-1.0 if odd and math.sin(a) < 0 else 1.0 for a in theta]
+    return np.array([s * field(mesh(radius * math.cos(a), abs(radius * math.sin(a)), 0.0, ngs.BND))
+                     for s, a in zip(sign, theta)])
 
 
-def plate_mode_wave(mode_u, mesh: ngs.Mesh, *, half: bool = False) -> dict:
+def plate_mode_wave(mode_u, mesh: ngs.Mesh, *, half: bool = False, odd: bool = False) -> dict:
     """Wave number of a plate mode's deflection on the circle (r/R = 0.3 ... 0.95) where it is
-    largest (``half``: see ``disk_circle_values``)."""
+    largest (``half``, ``odd``: see ``disk_circle_values``)."""
     best = None
     for rho in np.linspace(0.3, 0.95, 14):
-        values = disk_circle_values(mode_u[2], mesh, radius=float(rho), n=64, half=half)
+        values = disk_circle_values(mode_u[2], mesh, radius=float(rho), n=64, half=half, odd=odd)
         analysis = wave_number(values, max_mode=12)
         if best is None or analysis.amplitude > best[1].amplitude:
             best = (float(rho), analysis)

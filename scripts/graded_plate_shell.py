@@ -24,7 +24,8 @@ shows the sequence (p = 10: 2 -> 4 -> 6), but the rim's end pattern needs finer 
 ``--maxh 0.1`` (about 35 min) ends at p = 10 with the thesis's k = 8 (as does 0.15; docs/graded.md).
 
 Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summary.json``
-(with the penetration depth of the final dominant wave, ``pattern_depth``), ``snaps.json``,
+(with the penetration depth of the final dominant wave, ``pattern_depth``, and - half disk - the
+end state's stability against the modes odd in y that the half disk excludes, ``odd_modes``), ``snaps.json``,
 ``state_end.npz``, ``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
 end).
 
@@ -41,12 +42,12 @@ import time
 import numpy as np
 import ngsolve as ngs
 
-from bench_shell import GRADED_N0, GRADED_NR, disk_circle_values, graded_plate_shell, plate_mode_wave
+from bench_shell import GRADED_N0, GRADED_NR, disk_circle_values, graded_plate_shell, odd_free_mask, plate_mode_wave
 from ngsgel import FloryRehnerGel, NewtonError, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
 from ngsgel.relaxation import settle, settle_after
 from ngsgel.stepping import RampError
-from ngsgel.stability import free_matrix, negative_count
+from ngsgel.stability import free_matrix, negative_count, spectrum
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import penetration_depth, periodic_peaks, wave_number
 
@@ -118,6 +119,28 @@ def pattern_depth(shell, mesh: ngs.Mesh, k: int, *, half: bool, radii: np.ndarra
                           for r in radii])
     return {"k": k, "l_5%": penetration_depth(amplitude, radii), "l_half": penetration_depth(amplitude, radii, fraction=0.5),
             "radii": radii.tolist(), "amplitude": amplitude.tolist()}
+
+
+def odd_modes(shell, mesh: ngs.Mesh, *, count: int = 3) -> dict:
+    """The half disk's current state (even in y) as a state of the full disk, against the
+    perturbations the half disk's symmetry excludes: the exact negative count and the ``count``
+    lowest eigenvalues of the tangent among the modes odd in y (``bench_shell.odd_free_mask``),
+    each with the wave number of its deflection (``sin k theta``). One value near zero whose k is
+    the state's own is the neutral rotation of the pattern about the axis (a zero mode of the
+    disk, which the mesh breaks slightly to either sign), not an instability."""
+    mask = odd_free_mask(shell, mesh)
+    with ngs.TaskManager():
+        K = free_matrix(shell.tangent(shell.state), mask)
+        M = free_matrix(shell.mass_matrix(), mask)
+    odd = spectrum(shell, count=count, K=K, M=M)
+    mode = ngs.GridFunction(shell.space)
+    modes = []
+    for value, vector in zip(odd.eigenvalues, odd.modes.T):
+        full = np.zeros(shell.space.ndof)
+        full[mask] = vector
+        mode.vec.FV().NumPy()[:] = full
+        modes.append({"eigenvalue": float(value), **plate_mode_wave(mode.components[0], mesh, half=True, odd=True)})
+    return {"negative": odd.negative, "modes": modes}
 
 
 def check_grading(n0: float, nR: float) -> None:
@@ -262,6 +285,8 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
                "rim_end": rim_end,
                "penetration_depth": pattern_depth(shell, mesh, int(rim_end["rim_k"]), half=half) if rim_end["rim_k"] else None,
                "pin_reactions": [shell.reaction(pt, "z") for pt in pins],
+               # the half disk's end state on the full disk: the modes odd in y
+               "odd_modes_end": odd_modes(shell, mesh) if half else None,
                "wall_s": time.perf_counter() - start}
     run_dir.write_json("summary.json", summary)
     plot_shape(shell, mesh, run_dir.file("shape_end.png"),

@@ -146,7 +146,8 @@ def test_local_minima_and_power_law_fit():
 
 def test_disk_circle_values_mirror_the_half_disk():
     # a field even in y sampled on the half disk (mirrored) and on the full disk: both equal the
-    # closed form r^2 cos 2 theta + r^3 cos 3 theta on the circle, and the wave count finds k = 2
+    # closed form r^2 cos 2 theta + r^3 cos 3 theta on the circle, and the wave count finds k = 2;
+    # an odd one mirrored with the sign flip (the deflection of a mode odd in y)
     import ngsolve as ngs
 
     import bench_shell
@@ -161,6 +162,10 @@ def test_disk_circle_values_mirror_the_half_disk():
         values = bench_shell.disk_circle_values(field, mesh, radius=0.8, n=48, half=half)
         assert np.allclose(values, exact, atol=1e-12)
         assert wave_number(values).k == 2
+        # a field odd in y: r^2 sin 2 theta + r^3 sin 3 theta, mirrored with the sign flip
+        odd_field = 2 * ngs.x * ngs.y + 3 * ngs.x * ngs.x * ngs.y - ngs.y**3
+        odd_values = bench_shell.disk_circle_values(odd_field, mesh, radius=0.8, n=48, half=half, odd=True)
+        assert np.allclose(odd_values, 0.8**2 * np.sin(2 * theta) + 0.8**3 * np.sin(3 * theta), atol=1e-12)
 
 
 def test_matching_thresholds_need_every_computed_thesis_case():
