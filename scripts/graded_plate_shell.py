@@ -191,7 +191,8 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
     if through_snaps and not snap_overshoot > 2 * step / MIN_STEP_DIVISOR:  # only snapping legs use it
         raise ValueError(f"snap_overshoot must exceed 2 step / {MIN_STEP_DIVISOR} = {2 * step / MIN_STEP_DIVISOR:g} "
                          f"(the resolution of a stalled natural leg), got {snap_overshoot!r}")
-    params = dict(p=p, n0=n0, nR=nR, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps, eigenvalues=eigenvalues,
+    params = dict(p=p, n0=n0, nR=nR, t=t, maxh=maxh, order=order, step=step, max_steps=max_steps,
+                  eigenvalues=eigenvalues,
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
                   switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot,
                   jump_ratio=jump_ratio, quick=quick,
@@ -316,7 +317,8 @@ def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, n0: float 
     if not mu_start < 0:
         raise ValueError(f"mu_start must be < 0, got {mu_start!r}")
     check_grading(n0, nR)
-    run_dir = RunDirectory(out, params=dict(p=p, k=k, load=load, n0=n0, nR=nR, t=t, maxh=maxh, order=order, mu_start=mu_start,
+    run_dir = RunDirectory(out, params=dict(p=p, k=k, load=load, n0=n0, nR=nR, t=t, maxh=maxh, order=order,
+                                            mu_start=mu_start,
                                             step=step, realcompile=realcompile, mode="seeded pattern"))
     progress = Progress(f"seeded k = {k}, p = {p:g}")
     start = time.perf_counter()
