@@ -118,15 +118,20 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
 
     tangent = {}  # the last assembled tangent: its state, matrix and unshifted values
 
-    def damped_inverse(tau: float):
-        # a refused step leaves the state as it was: shift the same tangent again instead of
-        # reassembling it (the assembly is most of a step's cost, and refusals are common)
+    def current_tangent():
+        # a refused step leaves the state as it was: reuse its tangent instead of reassembling it
+        # (the assembly is most of a step's cost, and refusals are common); the matrix may hold a
+        # shifted copy, so its unshifted values are restored
         state = x.FV().NumPy()
         if "state" not in tangent or not np.array_equal(tangent["state"], state):
             K = problem.tangent(x)
             tangent.update(state=state.copy(), matrix=K, values=K.AsVector().FV().NumPy().copy())
         K = tangent["matrix"]
         K.AsVector().FV().NumPy()[:] = tangent["values"]
+        return K
+
+    def damped_inverse(tau: float):
+        K = current_tangent()
         K.AsVector().data += (1.0 / tau) * mass.AsVector()
         return K, solver.factor(K)
 
@@ -178,13 +183,9 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
         """``0.5 / |omega|`` of the current state's lowest eigenvalue if it is unstable, else inf;
         the tangent is kept for the next step."""
         nonlocal free_mass
-        state = x.FV().NumPy()
-        if "state" not in tangent or not np.array_equal(tangent["state"], state):
-            K = problem.tangent(x)
-            tangent.update(state=state.copy(), matrix=K, values=K.AsVector().FV().NumPy().copy())
         if free_mass is None:
             free_mass = free_matrix(mass, free)
-        lowest = spectrum(problem, count=1, K=free_matrix(tangent["matrix"], free), M=free_mass, past_negative=True)
+        lowest = spectrum(problem, count=1, K=free_matrix(current_tangent(), free), M=free_mass, past_negative=True)
         return 0.5 / abs(float(lowest.eigenvalues[0])) if lowest.negative else math.inf
 
     def stable_end() -> SettleResult:

@@ -47,7 +47,7 @@ Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructe
     python scripts/microlens.py --out results/microlens_out --H 0.2 --direction outward --depth 1.0
     python scripts/microlens.py --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
     python scripts/microlens.py --out results/microlens_mu --maxh 0.02 --mu-at 0.859 --mu-to=1.5e-4
-    python scripts/microlens.py --out results/microlens_rise --model shell --mu-at 0.859 --mu-to=1.6e-4 --mu-steps 16 --polygon 4
+    python scripts/microlens.py --out results/microlens_rise --model shell --polygon 4 --polygon-at 0.859 --mu-to=1.6e-4 --mu-steps 16
 """
 
 from __future__ import annotations
