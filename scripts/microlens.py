@@ -85,6 +85,11 @@ AXISYMMETRIC_DIRECTIONS = ("inward", "outward")
 MU_HOLDS = ("depth", "force")  # what the indenter keeps while mu changes (axisymmetric model)
 BASE_MIDPOINT = (1.0, 0.0)  # (r, z) of the base's mid-surface circle in the section
 JUMP_RATIO = 2.0  # a shell step converged farther from its predictor than this many increments jumped
+# Next to a critical state of the shell path (H = 0.3R, d/H 1.36) Newton sits at a residual of
+# ~3e-13 (1e-4 of its start, 1e3 above the driver's floor) for 30 iterations, 200 s, and the
+# halved step lands nearer the critical state and fails the same way; the slowest converging step
+# measured there plateaued for ~8 iterations: give up after 10 without halving
+STALL_WINDOW = 10
 
 
 @dataclass(frozen=True)
@@ -453,7 +458,8 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
     onto the bifurcated branch; steps that converge far from their predictor (``JUMP_RATIO``)
-    are cut as failed. A path that cannot go on (a limit point under displacement control)
+    or whose Newton solve does not halve its residual in ``STALL_WINDOW`` iterations are cut as
+    failed. A path that cannot go on (a limit point under displacement control)
     ends with ``stop_reason`` "stalled: ..." instead of raising; one left on an unstable branch (the
     location or the branch switch failed) stops there ("criterion"). ``checkpoint_file``/``restart``:
     see ``follow_path``."""
@@ -472,7 +478,7 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                            # large step can converge onto the other one, which no eigenvalue shows
                            max_correction=JUMP_RATIO,
                            # a chord step costs a residual, ~1/25 of a shell tangent
-                           newton_options={"reuse_factorisation": True})
+                           newton_options={"reuse_factorisation": True, "stall_window": STALL_WINDOW})
     except ContinuationError as error:
         result = error.result
         result.stop_reason = f"stalled in the {stage}: {error}"
