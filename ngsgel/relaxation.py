@@ -179,23 +179,27 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     rnorm = free_norm(r)
     r_max = rnorm
 
-    def instability_cap() -> float:
-        """``0.5 / |omega|`` of the current state's lowest eigenvalue if it is unstable, else inf;
-        the tangent is kept for the next step."""
+    def free_mass_matrix():
         nonlocal free_mass
         if free_mass is None:
             free_mass = free_matrix(mass, free)
-        lowest = spectrum(problem, count=1, K=free_matrix(current_tangent(), free), M=free_mass, past_negative=True)
+        return free_mass
+
+    def instability_cap() -> float:
+        """``0.5 / |omega|`` of the current state's lowest eigenvalue if it is unstable, else inf;
+        the tangent is kept for the next step."""
+        lowest = spectrum(problem, count=1, K=free_matrix(current_tangent(), free), M=free_mass_matrix(),
+                          past_negative=True)
         return 0.5 / abs(float(lowest.eigenvalues[0])) if lowest.negative else math.inf
 
     def stable_end() -> SettleResult:
-        K = free_matrix(problem.tangent(x), free)
+        K = free_matrix(current_tangent(), free)  # often just assembled by ``instability_cap``
         result.negative = negative_count(K)
         if result.negative:
             raise SettleError(f"the flow ended on an unstable equilibrium ({result.negative} negative eigenvalues): "
                               "perturb the start (e.g. along its lowest mode)", result)
         result.energy_end = energy
-        result.lowest_eigenvalue = float(spectrum(problem, count=1, K=K).eigenvalues[0])
+        result.lowest_eigenvalue = float(spectrum(problem, count=1, K=K, M=free_mass_matrix()).eigenvalues[0])
         return result
 
     while True:

@@ -140,9 +140,9 @@ def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spm
         # (rigid motions) whose sign is round-off, and the set found is the lowest.
         if sigma != near:
             values, vectors = _nearest(K, M, count, sigma)
-        if sigma != near and np.count_nonzero(values < 0) < wanted:
-            raise RuntimeError(f"the eigen solve about the shift {sigma:.3g} found {np.count_nonzero(values < 0)} of "
-                               f"the {wanted} negative eigenvalues the inertia puts above it")
+            if np.count_nonzero(values < 0) < wanted:
+                raise RuntimeError(f"the eigen solve about the shift {sigma:.3g} found {np.count_nonzero(values < 0)} "
+                                   f"of the {wanted} negative eigenvalues the inertia puts above it")
     vectors *= np.sqrt(_volume(problem))
     return Spectrum(eigenvalues=values, modes=vectors, negative=negative)
 
