@@ -1,8 +1,8 @@
 """ngsgel: polymer gels on NGSolve — swelling, large deformation, solvent diffusion, instabilities.
 
 Submodules not re-exported here: ``ngsgel.patterns`` (wave, vertex and crease analysis),
-``ngsgel.ring_foundation`` (ring-on-foundation buckling), ``ngsgel.output`` (run folders, histories,
-VTK series) and ``ngsgel.stability`` (spectra, buckling, imperfections; its main entry points are
+``ngsgel.output`` (run folders, histories, VTK series, progress), ``ngsgel.scenes`` (the thesis's
+scenes and studies, one module each; ``ngsgel list`` names them) and ``ngsgel.stability`` (spectra, buckling, imperfections; its main entry points are
 re-exported).
 """
 

@@ -4,19 +4,19 @@ reference, against wall time, one row per model and resolution.
 (a) Inward-indented microlens cap (H = 0.3 R, t = 0.005 r, Nv = 1e-3, mu = 0, apex patch 0.05 R
     moved down rigidly): depth ``d/H`` of the first non-axisymmetric bifurcation and its wave
     number. Models: the axisymmetric solid with the harmonic (Fourier mode k) second variation
-    (``scripts/microlens_onset.py``; the Fourier reduction of the 3D solid, so it is the 3D
+    (``ngsgel/scenes/microlens_onset.py``; the Fourier reduction of the 3D solid, so it is the 3D
     reference for the onset from an axisymmetric pre-buckling state), and ``GelShell`` on the
-    full cap (``bench_shell.cap_shell_onset``: continuation driver, exact negative count). The
+    full cap (``shell_cases.cap_shell_onset``: continuation driver, exact negative count). The
     3D thin cap is not run: its unknown count at the wall's resolution is printed instead.
 (b) Softer-edge graded disk (t/R = 0.01, Nv 1e-2 -> 1e-3, exponent p): critical ``mu`` and wave
     number. Models: the axisymmetric section with the harmonic scan (``graded_plate.build``,
     ``first_harmonic_instability``), ``GelShell`` on the full disk
-    (``bench_shell.graded_plate_shell_onset``) and the 3D thin solid (``plate_solid``: prism
-    layers under a triangle mesh, ``bench_shell.graded_plate_solid_onset``: the same path,
+    (``shell_cases.graded_plate_shell_onset``) and the 3D thin solid (``plate_solid``: prism
+    layers under a triangle mesh, ``shell_cases.graded_plate_solid_onset``: the same path,
     negative count and location as the shell), p = 2 only.
 
 Reference for (a): the axisymmetric solid at h = 0.01, order 3 (d/H = 0.49090, k = 3; 0.49105 at
-h = 0.02); for (b): the section at 100 x 4 cells (``bench_shell.GRADED_REFERENCE``). Errors are
+h = 0.02); for (b): the section at 100 x 4 cells (``shell_cases.GRADED_REFERENCE``). Errors are
 relative; a row whose onset has the wrong wave number, or none, gets no error (inf). Wall times
 exclude meshing and include the whole path, its stability checks and the location of the onset;
 they depend on the machine's load (recorded in ``params.json``).
@@ -30,10 +30,10 @@ import math
 import os
 import time
 
-import graded_plate
-import microlens_onset
+from ngsgel.scenes import graded_plate
+from ngsgel.scenes import microlens_onset
 import ngsolve as ngs
-from bench_shell import (APEX, GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_REFERENCE, GRADED_T, H, MICROLENS_T,
+from ngsgel.scenes.shell_cases import (APEX, GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_REFERENCE, GRADED_T, H, MICROLENS_T,
                          cap_section_stiffness, cap_shell_onset, graded_plate_shell_onset, graded_plate_solid_onset)
 from geometries import cap_solid
 from ngsgel import FloryRehnerGel

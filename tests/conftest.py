@@ -1,6 +1,7 @@
 import os
 import sys
 
-# Tests import the scene scripts as modules (scikit-fem style: every example is a regression test).
+# The benchmarks in scripts/ are not installed; their tests import them by path. Scenes are
+# imported from the package (ngsgel.scenes).
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))

@@ -14,7 +14,7 @@ from ngsgel.continuation import Checkpoint, ContinuationError, StabilityOptions,
 from ngsgel.output import History
 from ngsgel.stability import linear_buckling, random_field, seed_imperfection
 
-import buckling_demo
+from ngsgel.scenes import buckling_demo
 
 E, NU = 1.0, 0.3
 E_PLANE = E / (1 - NU**2)  # bending and axial modulus of a plane-strain strip with free faces

@@ -1,24 +1,21 @@
 """Creases on a bonded gel layer (scene E): homogeneous state, linear threshold, contact, script."""
 
 import json
-import os
-import sys
 
 import numpy as np
 import ngsolve as ngs
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "scripts"))
 
-import creases  # noqa: E402
-from geometries.layers import layer_plane  # noqa: E402
-from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp  # noqa: E402
-from ngsgel.contact import SelfContact, crossing_loops, plane_contact, self_intersections, surface_line  # noqa: E402
-from ngsgel.surface import surface_tension  # noqa: E402
-from ngsgel.transient import march  # noqa: E402
-from netgen import occ  # noqa: E402
-from ngsolve.meshes import Make1DMesh  # noqa: E402
-from scipy.optimize import brentq  # noqa: E402
+from ngsgel.scenes import creases
+from geometries.layers import layer_plane
+from ngsgel import EquilibriumProblem, FloryRehnerGel, PlaneStrain, ramp
+from ngsgel.contact import SelfContact, crossing_loops, plane_contact, self_intersections, surface_line
+from ngsgel.surface import surface_tension
+from ngsgel.transient import march
+from netgen import occ
+from ngsolve.meshes import Make1DMesh
+from scipy.optimize import brentq
 
 
 def coarse(**change):

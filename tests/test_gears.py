@@ -12,12 +12,12 @@ from ngsolve.meshes import Make1DMesh
 
 import geometries as geo
 from ngsgel import EquilibriumProblem, FloryRehnerGel, GeneralizedPlaneStrain, PlaneStrain, ramp
-from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, FilmTube, RadialTube, gel_plane_strain_moduli, linear_film_stresses,
+from ngsgel.scenes.film_tube import (FILM_INNER, FILM_OUTER, FilmTube, RadialTube, gel_plane_strain_moduli, linear_film_stresses,
                               linear_switch, ring_onset)
 from ngsgel.kinematics import PolarPlaneStrain
 from ngsgel.supports import pin_rigid_modes
 
-import gears
+from ngsgel.scenes import gears
 
 
 @pytest.fixture(autouse=True, scope="module")

@@ -425,5 +425,5 @@ def test_mesh_timing_script(tmp_path):
     rows = mesh_timing.main(["--quick", "--out", str(tmp_path)])
     assert {r["mesh"] for r in rows} >= {"cap_solid", "gear_annulus", "plate_solid",
                                          "crease_layer"}
-    assert all(r["elements"] > 0 and r["seconds"] < 10 for r in rows)
+    assert all(r["elements"] > 0 and r["seconds"] > 0 for r in rows)
     assert (tmp_path / "mesh_timing.csv").read_text().count("\n") == len(rows) + 1

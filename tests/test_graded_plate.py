@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-import graded_plate
+from ngsgel.scenes import graded_plate
 
 
 def test_softer_edge_buckles_non_axisymmetrically_with_compressive_hoop_stress_at_the_edge(tmp_path):
@@ -57,7 +57,7 @@ def test_graded_plate_rejects_bad_input(tmp_path):
 
 
 def test_graded_tube_rejects_bad_input():
-    import graded_tube
+    from ngsgel.scenes import graded_tube
 
     with pytest.raises(ValueError, match="t "):
         graded_tube.build(n0=1e-2, nL=1e-3, p=5, t=1.5, L=2, maxh=0.1, order=2, mu0=-1.0)
@@ -150,26 +150,26 @@ def test_disk_circle_values_mirror_the_half_disk():
     # an odd one mirrored with the sign flip (the deflection of a mode odd in y)
     import ngsolve as ngs
 
-    import bench_shell
+    from ngsgel.scenes import shell_cases
     from ngsgel.patterns import wave_number
 
     field = ngs.x * ngs.x - ngs.y * ngs.y + ngs.x**3 - 3 * ngs.x * ngs.y * ngs.y
     theta = 2 * np.pi * np.arange(48) / 48
     exact = 0.8**2 * np.cos(2 * theta) + 0.8**3 * np.cos(3 * theta)
     for half in (True, False):
-        mesh = bench_shell.split_disk(maxh=0.3, curve_order=2, half=half)
+        mesh = shell_cases.split_disk(maxh=0.3, curve_order=2, half=half)
         assert ("cut" in mesh.GetBBoundaries()) == half
-        values = bench_shell.disk_circle_values(field, mesh, radius=0.8, n=48, half=half)
+        values = shell_cases.disk_circle_values(field, mesh, radius=0.8, n=48, half=half)
         assert np.allclose(values, exact, atol=1e-12)
         assert wave_number(values).k == 2
         # a field odd in y: r^2 sin 2 theta + r^3 sin 3 theta, mirrored with the sign flip
         odd_field = 2 * ngs.x * ngs.y + 3 * ngs.x * ngs.x * ngs.y - ngs.y**3
-        odd_values = bench_shell.disk_circle_values(odd_field, mesh, radius=0.8, n=48, half=half, odd=True)
+        odd_values = shell_cases.disk_circle_values(odd_field, mesh, radius=0.8, n=48, half=half, odd=True)
         assert np.allclose(odd_values, 0.8**2 * np.sin(2 * theta) + 0.8**3 * np.sin(3 * theta), atol=1e-12)
 
 
 def test_matching_thresholds_need_every_computed_thesis_case():
-    from graded_plate_growth import matching_thresholds
+    from ngsgel.scenes.graded_plate_growth import matching_thresholds
 
     thresholds = [1.0, 2.0, 3.0, 4.0]
     table = {0.25: [2, 2, 2, 3], 10.0: [2, 6, 8, 8], 5.0: [1, 1, 1, 1]}  # 5.0: not a thesis case, ignored
@@ -183,7 +183,7 @@ def test_quick_growth_selection_starts_at_the_onset_wave_number(tmp_path):
     the softer edge), and a larger threshold never selects a smaller k on this case."""
     import csv
 
-    from graded_plate_growth import main
+    from ngsgel.scenes.graded_plate_growth import main
 
     summary = main(["--quick", "--out", str(tmp_path)])
     assert summary["cases"][0]["k_first_unstable"] == 2
@@ -194,7 +194,7 @@ def test_quick_growth_selection_starts_at_the_onset_wave_number(tmp_path):
 
 
 def test_continuous_critical_wave_number_is_the_vertex_of_the_onset_parabola():
-    from graded_plate import WaveOnset, continuous_critical_wave_number
+    from ngsgel.scenes.graded_plate import WaveOnset, continuous_critical_wave_number
 
     def onsets(vertex, ks, missing=()):
         return [WaveOnset(k, k not in missing, math.nan, -0.2 + 0.01 * (k - vertex) ** 2 if k not in missing else math.nan,
@@ -244,7 +244,7 @@ def test_linear_buckling_from_a_base_near_the_onset_predicts_the_onset(tmp_path)
 def test_tube_linear_buckling_lists_the_smallest_multiplier_first(tmp_path):
     import csv
 
-    import graded_tube
+    from ngsgel.scenes import graded_tube
 
     with pytest.raises(ValueError, match="bases"):
         graded_tube.linear_buckling_case(str(tmp_path / "bad"), bases=[-0.5, 0.0])

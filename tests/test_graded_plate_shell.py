@@ -6,14 +6,14 @@ import numpy as np
 import ngsolve as ngs
 import pytest
 
-import bench_shell
-import graded_plate_shell
+from ngsgel.scenes import shell_cases
+from ngsgel.scenes import graded_plate_shell
 from ngsgel.stability import spectrum
 
 
 @pytest.mark.parametrize("half", [True, False])
 def test_pattern_depth_of_an_exponentially_decaying_edge_wave(half):
-    shell, mesh, _ = bench_shell.graded_plate_shell(10.0, maxh=0.15, order=3, half=half)
+    shell, mesh, _ = shell_cases.graded_plate_shell(10.0, maxh=0.15, order=3, half=half)
     k, decay = 5, 0.12  # w = exp(-(1 - r) / decay) cos(k theta): l_5% = decay ln 20, l_1/2 = decay ln 2
     r = ngs.sqrt(ngs.x**2 + ngs.y**2)
     theta = ngs.atan2(ngs.y, ngs.x)
@@ -32,7 +32,7 @@ def test_pattern_depth_of_an_exponentially_decaying_edge_wave(half):
 def test_rim_crests_count_a_modulated_tilted_edge_wave(half):
     # 8 waves whose amplitude varies around the rim (|1 + 0.6 cos 2 theta| between 0.4 and 1.6)
     # on a global tilt: the dominant harmonic holds well under all of it, the crests are 8
-    shell, mesh, _ = bench_shell.graded_plate_shell(10.0, maxh=0.15, order=3, half=half)
+    shell, mesh, _ = shell_cases.graded_plate_shell(10.0, maxh=0.15, order=3, half=half)
     r = ngs.sqrt(ngs.x**2 + ngs.y**2)
     theta = ngs.atan2(ngs.y, ngs.x)
     w = r**8 * (1 + 0.6 * ngs.cos(2 * theta)) * ngs.cos(8 * theta) + 0.3 * r * ngs.cos(theta)
@@ -45,13 +45,13 @@ def test_rim_crests_count_a_modulated_tilted_edge_wave(half):
 @pytest.mark.slow
 def test_quick_run_switches_onto_the_saddle_at_the_converged_onset(tmp_path):
     # --quick (half disk, h = 0.2, about 2 min): the flat disk loses stability at the onset of the
-    # converged reference (100 x 4 section cells, bench_shell.GRADED_REFERENCE) and the switch
+    # converged reference (100 x 4 section cells, shell_cases.GRADED_REFERENCE) and the switch
     # lands on a stable, nearly pure k = 2 saddle
     summary = graded_plate_shell.main(["--quick", "--out", str(tmp_path)])
     kinds = [e["kind"] for e in summary["events"]]
     assert kinds[:2] == ["bifurcation", "branch switch"]
     onset = summary["events"][0]
-    assert onset["mu"] == pytest.approx(bench_shell.GRADED_REFERENCE[10.0], rel=1e-3)
+    assert onset["mu"] == pytest.approx(shell_cases.GRADED_REFERENCE[10.0], rel=1e-3)
     assert onset["mode_k"] == 2
     assert summary["negative_end"] == 0 and summary["mu_end"] > onset["mu"]
     assert summary["rim_end"]["rim_k"] == 2 and summary["rim_end"]["rim_purity"] > 0.9
@@ -95,7 +95,7 @@ def test_the_flat_half_disk_has_the_same_sin_and_cos_spectrum_at_k_3():
     # eigenvalues, cos k theta (the half disk's even modes) and sin k theta (the odd modes that
     # odd_free_mask adds back). k = 3 is checked: the pins (w at r = 0.25 on the x axis for even,
     # on the y axis for odd modes) touch the k <= 2 modes differently, k = 3 hardly (r^3).
-    shell, mesh, _ = bench_shell.graded_plate_shell(10.0, maxh=0.2, order=3, half=True)
+    shell, mesh, _ = shell_cases.graded_plate_shell(10.0, maxh=0.2, order=3, half=True)
     shell.solve()
     even = spectrum(shell, count=4)
     assert even.negative == 0
@@ -104,7 +104,7 @@ def test_the_flat_half_disk_has_the_same_sin_and_cos_spectrum_at_k_3():
     for value, vector in zip(even.eigenvalues, even.modes.T):
         mode.vec.FV().NumPy()[:] = 0.0
         mode.vec.FV().NumPy()[shell.free_mask] = vector
-        if bench_shell.plate_mode_wave(mode.components[0], mesh, half=True)["k"] == 3:
+        if shell_cases.plate_mode_wave(mode.components[0], mesh, half=True)["k"] == 3:
             even_k3.append(value)
     odd = graded_plate_shell.odd_modes(shell, mesh, count=4)
     assert odd["negative"] == 0

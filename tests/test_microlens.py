@@ -7,7 +7,7 @@ import csv
 import numpy as np
 import pytest
 
-import microlens
+from ngsgel.scenes import microlens
 from ngsgel.continuation import Checkpoint
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-import microlens_onset
+from ngsgel.scenes import microlens_onset
 
 
 def test_fitch_parameter_matches_the_thesis_values():

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from ngsgel.ring_foundation import (
+from ngsgel.scenes.ring_foundation import (
     bending_stiffness,
     critical_hoop_force,
     critical_mode,

@@ -2,7 +2,7 @@
 
 import csv
 
-import free_swelling
+from ngsgel.scenes import free_swelling
 
 
 def test_free_swelling_script(tmp_path):

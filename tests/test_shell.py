@@ -11,7 +11,7 @@ import ngsolve as ngs
 import pytest
 from netgen import occ
 
-import bench_shell  # scripts/ (tests/conftest.py): the benchmark's cases are the reference cases
+from ngsgel.scenes import shell_cases
 from geometries import cap_midsurface, cap_section, plate_midsurface
 from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, StabilityOptions, follow_path, linear_buckling, ramp,
                     spectrum)
@@ -19,7 +19,7 @@ from ngsgel.output import VTKSeries
 from ngsgel.stability import conjugate_force, mode_function
 from ngsgel.shell import GelShell
 
-thin_plate_deflection = bench_shell.thin_plate_deflection
+thin_plate_deflection = shell_cases.thin_plate_deflection
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 MU0, MU1 = -0.05, -0.03
@@ -136,8 +136,8 @@ def test_cap_swelling_agrees_with_the_axisymmetric_solid(t):
     # (order 3, h = 0.2) against the axisymmetric solid (h = t/8, 4 layers). Measured +0.35 %
     # (t/r = 0.044) and -0.13 % (0.022); with converged meshes (shell h = 0.1, section h = t/16,
     # 8 layers) +0.49 %, -0.32 %, -0.34 % at t/r = 0.044, 0.022, 0.011.
-    shell, _ = bench_shell.cap_shell_rise(t, maxh=0.2)
-    solid, _ = bench_shell.cap_section_rise(t, maxh=t / 8, layers=4)
+    shell, _ = shell_cases.cap_shell_rise(t, maxh=0.2)
+    solid, _ = shell_cases.cap_section_rise(t, maxh=t / 8, layers=4)
     print(f"t={t}: shell {shell:.7f}, axisymmetric {solid:.7f}, {shell / solid - 1:+.2%}")
     assert shell == pytest.approx(solid, rel=0.01)
 
@@ -204,14 +204,14 @@ def test_rigid_patch_force_does_the_work_of_the_indentation():
 def test_microlens_point_load_stiffness_matches_reissner():
     # t/r = 0.005 cap, apex point force, linear range: Reissner's F/w = 4 E t^2/(r sqrt(3(1-nu^2))).
     # Measured 1.0042 (apex h = 0.02, 38919 dofs) and 1.0028 (h = 0.01).
-    ratio, _ = bench_shell.apex_stiffness_over_reissner(maxh=0.2, apex_maxh=0.02)
+    ratio, _ = shell_cases.apex_stiffness_over_reissner(maxh=0.2, apex_maxh=0.02)
     assert ratio == pytest.approx(1.0, abs=0.01)
 
 
 @pytest.mark.slow  # ~2-4 min; scripts/bench_shell.py runs it
 def test_end_moment_rolls_a_strip_into_a_quarter_circle():
     # Large rotations (the end turns by 90 degrees): measured tip error 4.4e-5 L (735 dofs, 27 steps).
-    error, _, _ = bench_shell.rolled_strip_tip_error()
+    error, _, _ = shell_cases.rolled_strip_tip_error()
     assert error < 1e-3
 
 
@@ -405,15 +405,15 @@ def test_graded_plate_shell_buckles_at_the_axisymmetric_onset_with_two_waves(hal
     # radial width w ~ 0.3 R (docs/graded.md); the wave is 2 pi 0.9 R / 2 ~ 3 R long, ~10 cells.
     # The half disk with mirror symmetry about y = 0 admits the cos 2 theta mode only: exactly one
     # negative eigenvalue there (the full disk's sin 2 theta partner shares the onset).
-    shell, mesh, _ = bench_shell.graded_plate_shell(2.0, maxh=0.3, order=3, half=half)
-    mu_c = bench_shell.GRADED_REFERENCE[2.0]
+    shell, mesh, _ = shell_cases.graded_plate_shell(2.0, maxh=0.3, order=3, half=half)
+    mu_c = shell_cases.GRADED_REFERENCE[2.0]
     ramp(shell, shell.mu, 1.01 * mu_c, step=0.2)
     assert spectrum(shell, count=2).negative == 0
     ramp(shell, shell.mu, 0.99 * mu_c)
     spec = spectrum(shell, count=2)
     assert spec.negative == 1 if half else spec.negative >= 1
     mode = mode_function(shell, spec.modes[:, 0]).components[0]
-    assert bench_shell.plate_mode_wave(mode, mesh, half=half)["k"] == 2
+    assert shell_cases.plate_mode_wave(mode, mesh, half=half)["k"] == 2
 
 
 @pytest.mark.slow  # ~30 s (one coarse order-3 solve of the t/r = 0.005 cap)
@@ -426,8 +426,8 @@ def test_apex_patch_load_stiffness_matches_the_axisymmetric_solid():
     # outer-face indenter lets the wall rotate under the patch edge over ~t; a shell patch smaller
     # by t/2 gives +0.8 %). The 2 % is the criterion; the Kirchhoff-Love model error
     # under a load spread over 5.5 t is ~(t / a)^2 / 10 ~ 0.3 %.
-    solid, _ = bench_shell.cap_section_pressure_stiffness(maxh=0.02, order=3)
-    shell, _ = bench_shell.cap_shell_pressure_stiffness(maxh=0.2, apex_maxh=0.025, order=3)
+    solid, _ = shell_cases.cap_section_pressure_stiffness(maxh=0.02, order=3)
+    shell, _ = shell_cases.cap_shell_pressure_stiffness(maxh=0.2, apex_maxh=0.025, order=3)
     assert shell == pytest.approx(solid, rel=0.02)
 
 

@@ -288,7 +288,7 @@ def test_bad_transient_input():
 def test_transient_layer_script_quick(tmp_path):
     import json
 
-    import transient_layer
+    from ngsgel.scenes import transient_layer
 
     start = time.perf_counter()
     transient_layer.main(["--out", str(tmp_path), "--quick"])
@@ -305,7 +305,7 @@ def test_ball_3d_agrees_with_axisymmetric_within_discretisation_error(tmp_path):
     # axisymmetric section on meshes of the same size, both against a fine spherical line
     import json
 
-    import transient_sphere
+    from ngsgel.scenes import transient_sphere
 
     transient_sphere.main(["--out", str(tmp_path), "--quick"])
     for name in ("params.json", "summary.json", "errors.csv", "histories.csv", "ball_3d.pvd", "transient_sphere.png"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-import bench_shell  # scripts/ (tests/conftest.py)
+from ngsgel.scenes import shell_cases
 
 
 def test_graded_plate_thin_solid_onset_converges_at_the_rate_of_its_elements():
@@ -17,10 +17,10 @@ def test_graded_plate_thin_solid_onset_converges_at_the_rate_of_its_elements():
     # observed order from these two meshes (4.2 measured) must be near it, which checks that the
     # 3D onset tends to the reference and not to something else. The location tolerance (1e-5
     # in mu) and the Newton floor (4e-6 in mu) are far below both errors.
-    reference = bench_shell.GRADED_REFERENCE[2.0]
+    reference = shell_cases.GRADED_REFERENCE[2.0]
     errors = []
     for maxh in (0.2, 0.15):
-        row = bench_shell.graded_plate_solid_onset(2.0, maxh=maxh, layers=1, order=2)
+        row = shell_cases.graded_plate_solid_onset(2.0, maxh=maxh, layers=1, order=2)
         assert row["found"] and row["event"] == "bifurcation"
         assert row["k"] == 2 and row["purity"] > 0.99
         # the six pins are statically determinate: no reaction beyond the Newton floor (~1e-9)

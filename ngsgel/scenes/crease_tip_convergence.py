@@ -2,7 +2,7 @@
 at fixed times, and the onset, for a sequence of surface meshes (docs/creases.md, "Why the onset
 did not converge").
 
-Each run is ``scripts/creases.py``'s transient problem (``creases.build_transient``, same onset
+Each run is ``ngsgel/scenes/creases.py``'s transient problem (``creases.build_transient``, same onset
 criterion: the first step with a surface point other than the corner on the mirror plane x <= 0),
 marched with ``dt_max`` up to ``--t-fine`` and with ``--dt-fine`` after it, so that the onset is
 bracketed to ``dt_fine``. The deformed top (4 points per P2 edge) is stored at every step
@@ -11,7 +11,7 @@ onset: the groove depth, the height of the tip (the corner X = 0), the radius of
 surface at the tip (exact for the P2 edge at the corner), and the half-width x of the groove at
 fixed heights y.
 
-    python scripts/crease_tip_convergence.py --out results/crease_tip --tip-h 0.005,0.0025,0.00125
+    ngsgel run crease-tip-convergence --out results/crease_tip --tip-h 0.005,0.0025,0.00125
 """
 
 from __future__ import annotations
@@ -19,18 +19,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 
 import numpy as np
 import ngsolve as ngs
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-import creases  # noqa: E402
-from ngsgel.contact import surface_line  # noqa: E402
-from ngsgel.transient import march  # noqa: E402
-from creases import tip_geometry  # noqa: E402
+from ngsgel.scenes import creases
+from ngsgel.contact import surface_line
+from ngsgel.transient import march
+from ngsgel.scenes.creases import tip_geometry
 
 
 class _Done(Exception):

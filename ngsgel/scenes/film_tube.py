@@ -18,7 +18,7 @@ thickness), their current radii and the gel's volume fraction.
 Ring-on-foundation onset
 ------------------------
 Each film is a ring of current mid-radius ``R`` and thickness ``t`` on the gel annulus
-(``ngsgel.ring_foundation``): it buckles into ``n`` waves when its hoop force reaches
+(``ngsgel.scenes.ring_foundation``): it buckles into ``n`` waves when its hoop force reaches
 ``N_cr = min_n D (n^2-1)/R^2 + K(n) R^2/(n^2-1)``. The onset ``mu`` of a film solves
 ``N(mu) = N_cr(mu)`` along the radial solution (bisection on ``mu``). The films are treated
 separately, as in the thesis (the other film and its stress are ignored in ``K``: the mode
@@ -49,13 +49,13 @@ from typing import Literal
 import numpy as np
 import ngsolve as ngs
 from scipy.optimize import brentq
-from netgen.meshing import Element0D, Element1D, FaceDescriptor, Mesh as NetgenMesh, MeshPoint, Pnt
+from netgen.meshing import Element0D, Element1D, Mesh as NetgenMesh, MeshPoint, Pnt
 
-from .kinematics import PolarGeneralizedPlaneStrain, PolarPlaneStrain
-from .materials import FloryRehnerGel, NeoHookeanFilm
-from .problem import EquilibriumProblem
-from .ring_foundation import critical_mode, foundation_stiffness_annulus
-from .stepping import ramp
+from ngsgel.kinematics import PolarGeneralizedPlaneStrain, PolarPlaneStrain
+from ngsgel.materials import FloryRehnerGel, NeoHookeanFilm
+from ngsgel.problem import EquilibriumProblem
+from ngsgel.scenes.ring_foundation import critical_mode, foundation_stiffness_annulus
+from ngsgel.stepping import ramp
 
 __all__ = ["FilmTube", "RadialTube", "RingOnset", "gel_plane_strain_moduli", "linear_film_stresses", "linear_switch",
            "ring_onset", "thesis_ring_estimate"]

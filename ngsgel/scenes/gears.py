@@ -39,22 +39,22 @@ from dataclasses import asdict, dataclass
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import ngsolve as ngs  # noqa: E402
-from scipy.sparse.linalg import LinearOperator, eigsh  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import ngsolve as ngs
+from scipy.sparse.linalg import LinearOperator, eigsh
 
-import geometries as geo  # noqa: E402
-from ngsgel import EquilibriumProblem, GeneralizedPlaneStrain, PlaneStrain  # noqa: E402
-from ngsgel.continuation import BorderedCorrector, follow_path  # noqa: E402
-from ngsgel.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset,  # noqa: E402
+import geometries as geo
+from ngsgel import EquilibriumProblem, GeneralizedPlaneStrain, PlaneStrain
+from ngsgel.continuation import BorderedCorrector, follow_path
+from ngsgel.scenes.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset,
                               thesis_ring_estimate)
-from ngsgel.newton import NewtonError  # noqa: E402
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
-from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number  # noqa: E402
-from ngsgel.stability import free_matrix, load_rate, mass_matrix, mode_function, negative_count  # noqa: E402
-from ngsgel.stepping import ramp  # noqa: E402
-from ngsgel.supports import pin_rigid_modes, pin_vertex_component, vertex_dof  # noqa: E402
+from ngsgel.newton import NewtonError
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries
+from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number
+from ngsgel.stability import free_matrix, load_rate, mass_matrix, mode_function, negative_count
+from ngsgel.stepping import ramp
+from ngsgel.supports import pin_rigid_modes, pin_vertex_component, vertex_dof
 
 NV, CHI = 1e-3, 0.5
 ES = 3 * NV  # the thesis's Es = 3NkT, in units of kT/v

@@ -31,13 +31,13 @@ the k of the lowest eigenvalue at ``mu = 0``), for every p (``--p``/``--sweep``)
 alone. ``--linear-buckling MU [MU ...]`` instead runs the eigenvalue buckling step of commercial
 codes (Abaqus ``*BUCKLE``) on the flat disk equilibrated at each ``MU``: the order in which such a
 code would list the wave numbers, whose modes are the usual imperfection seeds. What this script does not do: follow the non-axisymmetric post-buckled path
-(``scripts/graded_plate_shell.py``).
+(``ngsgel/scenes/graded_plate_shell.py``).
 
-    python scripts/graded_plate.py --out results/graded_plate [--p 10 --n0 1e-2 --nR 1e-3 --t 0.01] [--quick]
-    python scripts/graded_plate.py --out results/softer_centre --n0 1e-3 --nR 1e-2 --sweep 0.25 0.75 2 10
-    python scripts/graded_plate.py --out results/onset_curves --onset-curve --sweep 0.25 0.75 2 10 --kmax 50
-    python scripts/graded_plate.py --out results/k_star --onset-curve --end-only --t-sweep 0.01 0.02 0.05 0.1 --kmax 100
-    python scripts/graded_plate.py --out results/buckle --linear-buckling -1 -0.5 -0.3 --sweep 0.25 0.75 2 10 --kmax 40
+    ngsgel run graded-plate --out results/graded_plate [--p 10 --n0 1e-2 --nR 1e-3 --t 0.01] [--quick]
+    ngsgel run graded-plate --out results/softer_centre --n0 1e-3 --nR 1e-2 --sweep 0.25 0.75 2 10
+    ngsgel run graded-plate --out results/onset_curves --onset-curve --sweep 0.25 0.75 2 10 --kmax 50
+    ngsgel run graded-plate --out results/k_star --onset-curve --end-only --t-sweep 0.01 0.02 0.05 0.1 --kmax 100
+    ngsgel run graded-plate --out results/buckle --linear-buckling -1 -0.5 -0.3 --sweep 0.25 0.75 2 10 --kmax 40
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ as mu is ramped; the stretch of its corner is compared with the closed form in a
 dimensions. In plane strain the out-of-plane stretch stays at the reference value, so the
 in-plane stretch follows its own closed form (``lam_plane_strain``).
 
-    python scripts/free_swelling.py --out results/free_swelling [--quick]
+    ngsgel run free-swelling --out results/free_swelling [--quick]
 """
 
 from __future__ import annotations

@@ -15,13 +15,13 @@ import math
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import ngsolve as ngs  # noqa: E402
-from ngsolve.meshes import MakeStructured2DMesh  # noqa: E402
+import matplotlib.pyplot as plt
+import ngsolve as ngs
+from ngsolve.meshes import MakeStructured2DMesh
 
-from ngsgel import EquilibriumProblem, NeoHookeanFilm, PlaneStrain  # noqa: E402
-from ngsgel.continuation import PathResult, StabilityOptions, follow_path  # noqa: E402
-from ngsgel.output import History, Progress, RunDirectory  # noqa: E402
+from ngsgel import EquilibriumProblem, NeoHookeanFilm, PlaneStrain
+from ngsgel.continuation import PathResult, StabilityOptions, follow_path
+from ngsgel.output import History, Progress, RunDirectory
 
 
 def arch_problem(*, rise: float, thickness: float, elements: int, order: int, load_scale: float):

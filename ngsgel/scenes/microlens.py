@@ -43,11 +43,11 @@ Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructe
 - outward: ``F/(E0 t^2) = C [(1 + d/H) - (1 + d/H)^-2]`` (uniaxial tension of an incompressible
   neo-Hookean solid, the form of the thesis's eq. 3-7); the coefficient is fitted.
 
-    python scripts/microlens.py --out results/microlens --H 0.1 --depth 1.0 [--quick]
-    python scripts/microlens.py --out results/microlens_out --H 0.2 --direction outward --depth 1.0
-    python scripts/microlens.py --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
-    python scripts/microlens.py --out results/microlens_mu --maxh 0.02 --mu-at 0.859 --mu-to=1.5e-4
-    python scripts/microlens.py --out results/microlens_rise --model shell --polygon 4 --polygon-at 0.859 --mu-to=1.6e-4 --mu-steps 16
+    ngsgel run microlens --out results/microlens --H 0.1 --depth 1.0 [--quick]
+    ngsgel run microlens --out results/microlens_out --H 0.2 --direction outward --depth 1.0
+    ngsgel run microlens --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
+    ngsgel run microlens --out results/microlens_mu --maxh 0.02 --mu-at 0.859 --mu-to=1.5e-4
+    ngsgel run microlens --out results/microlens_rise --model shell --polygon 4 --polygon-at 0.859 --mu-to=1.6e-4 --mu-steps 16
 """
 
 from __future__ import annotations
@@ -59,22 +59,22 @@ from dataclasses import asdict, dataclass
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import optimize  # noqa: E402
-import ngsolve as ngs  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy import optimize
+import ngsolve as ngs
 
-from geometries import cap_midsurface, cap_section  # noqa: E402
-from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, NewtonError, follow_path, ramp  # noqa: E402
-from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions  # noqa: E402
-from ngsgel.harmonic import HarmonicStability, first_harmonic_instability  # noqa: E402
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser  # noqa: E402
-from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_number  # noqa: E402
-from ngsgel.relaxation import settle, settle_after  # noqa: E402
-from ngsgel.shell import GelShell  # noqa: E402
-from ngsgel.stepping import RampError  # noqa: E402
-from ngsgel.stability import conjugate_force, growth_exponents  # noqa: E402
-from ngsgel.supports import pin_vertex_component  # noqa: E402
+from geometries import cap_midsurface, cap_section
+from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, NewtonError, follow_path, ramp
+from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions
+from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_number
+from ngsgel.relaxation import settle, settle_after
+from ngsgel.shell import GelShell
+from ngsgel.stepping import RampError
+from ngsgel.stability import conjugate_force, growth_exponents
+from ngsgel.supports import pin_vertex_component
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 THICKNESS_RATIO = 0.005  # t / r

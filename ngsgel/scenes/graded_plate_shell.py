@@ -1,6 +1,6 @@
 """Post-buckled path of the softer-edge graded disk (thesis ch. 5, MODEL.md 5 C) as a shell.
 
-The disk ``GelShell`` of ``bench_shell.graded_plate_shell`` (graded ``Nv`` as a field; the half
+The disk ``GelShell`` of ``shell_cases.graded_plate_shell`` (graded ``Nv`` as a field; the half
 disk with mirror symmetry about y = 0 and three pins, or with ``--full-disk`` the full disk with six
 statically determinate pins) is swollen towards ``mu = 0`` with the exact negative count of the
 shell's tangent at every state. At the first bifurcation (the flat disk losing stability to the
@@ -11,7 +11,7 @@ Along the path the deflection ``w`` (z displacement; rigid tilt is removed by th
 sampled on the circle ``r = 0.97 R`` and its Fourier content recorded: the dominant wave number,
 its amplitude, the runner-up, the purity, the amplitudes of ``k = 1 .. 12`` and the
 number of crests. Each event's
-critical mode gets its wave number (``bench_shell.plate_mode_wave``).
+critical mode gets its wave number (``shell_cases.plate_mode_wave``).
 
 By default (the half disk: the k = 2 onset of the full disk is a double eigenvalue, along which a
 one-mode switch does not converge; ``--full-disk``, ``--switch-all``, ``--no-snaps`` for the other
@@ -29,8 +29,8 @@ end state's stability against the modes odd in y that the half disk excludes, ``
 ``state_end.npz``, ``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
 end).
 
-    python scripts/graded_plate_shell.py --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
-    python scripts/graded_plate_shell.py --out results/full_disk --full-disk --switch-all --mu-start -1
+    ngsgel run graded-plate-shell --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
+    ngsgel run graded-plate-shell --out results/full_disk --full-disk --switch-all --mu-start -1
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ import time
 import numpy as np
 import ngsolve as ngs
 
-from bench_shell import GRADED_N0, GRADED_NR, disk_circle_values, graded_plate_shell, odd_free_mask, plate_mode_wave
+from ngsgel.scenes.shell_cases import GRADED_N0, GRADED_NR, disk_circle_values, graded_plate_shell, odd_free_mask, plate_mode_wave
 from ngsgel import FloryRehnerGel, NewtonError, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
 from ngsgel.relaxation import settle, settle_after
@@ -124,7 +124,7 @@ def pattern_depth(shell, mesh: ngs.Mesh, k: int, *, half: bool, radii: np.ndarra
 def odd_modes(shell, mesh: ngs.Mesh, *, count: int = 3) -> dict:
     """The half disk's current state (even in y) as a state of the full disk, against the
     perturbations the half disk's symmetry excludes: the exact negative count and the ``count``
-    lowest eigenvalues of the tangent among the modes odd in y (``bench_shell.odd_free_mask``),
+    lowest eigenvalues of the tangent among the modes odd in y (``shell_cases.odd_free_mask``),
     each with the wave number of its deflection (``sin k theta``). One value near zero whose k is
     the state's own is the neutral rotation of the pattern about the axis (a zero mode of the
     disk, which the mesh breaks slightly to either sign), not an instability."""
@@ -163,7 +163,7 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
     ``maxit``: Newton iterations per solve (the driver's default when None). A Newton failure of
     the driver (e.g. in the branch switch) writes its residual history to ``newton_failure.json``
     before it propagates. ``half``: the half disk with mirror symmetry about y = 0
-    (``bench_shell.graded_plate_shell``): the k = 2 eigenvalue is simple there. ``switch_all``
+    (``shell_cases.graded_plate_shell``): the k = 2 eigenvalue is simple there. ``switch_all``
     False: legs; the first switches onto the buckled branch and stops once the rim wave exceeds
     0.1 t, the next follows that branch to ``mu = 0`` locating (not switching at) every later
     change of the negative count, with its critical mode's wave number (column ``leg``).

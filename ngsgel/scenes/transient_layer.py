@@ -6,7 +6,7 @@ rollers so the state stays one-dimensional) starts dry-ish at ``mu0`` and its to
 of ``mu`` and ``J`` through the thickness at output times, the uptake against ``sqrt(t)``
 (linear early on), a VTK time series, the step history (CSV) and a figure go into ``--out``.
 
-    python scripts/transient_layer.py --out results/transient_layer [--quick]
+    ngsgel run transient-layer --out results/transient_layer [--quick]
 """
 
 from __future__ import annotations

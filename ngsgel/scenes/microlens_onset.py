@@ -11,7 +11,7 @@ the number of vertices of the first polygonal state. Fitch's parameter
 ``lambda = 2 [3 (1 - nu^2)]^(1/4) sqrt(H/t)`` (nu = 0.5) and his ranges (3 waves for
 lambda > 13.5, 4 for 9.9-13.5, 5 for 9.2-9.9, axisymmetric below 9.2) are tabulated next to ours.
 
-    python scripts/microlens_onset.py --out results/microlens_onset [--H 0.1 0.2 0.3 0.4] [--quick]
+    ngsgel run microlens-onset --out results/microlens_onset [--H 0.1 0.2 0.3 0.4] [--quick]
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import math
 import os
 import time
 
-from microlens import THICKNESS_RATIO, AxisymmetricCap, Indentation, SectionResolution
+from ngsgel.scenes.microlens import THICKNESS_RATIO, AxisymmetricCap, Indentation, SectionResolution
 from ngsgel.harmonic import first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory
 

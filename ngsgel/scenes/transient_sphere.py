@@ -16,7 +16,7 @@ below the surface instability of a swelling skin (its in-plane compression is 15
 at ``mu = 0`` (4.2x) compresses the skin by 38 % and a fine 3D mesh resolves skin wrinkles
 that the axisymmetric and spherical models cannot have.
 
-    python scripts/transient_sphere.py --out results/transient_sphere [--quick]
+    ngsgel run transient-sphere --out results/transient_sphere [--quick]
 """
 
 from __future__ import annotations

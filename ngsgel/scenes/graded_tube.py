@@ -17,8 +17,8 @@ convex), ``mu_c``, ``k_c`` and the penetration depth of the critical mode from t
 ``--sweep P [P ...]`` runs several exponents; ``--linear-buckling MU [MU ...]`` the eigenvalue
 buckling step (Abaqus ``*BUCKLE``) of the trumpet at those ``mu`` (``graded_plate.py``). Not done: the post-buckled petals (a 3D run).
 
-    python scripts/graded_tube.py --out results/graded_tube --sweep 1 3 5 7.5 10 [--quick]
-    python scripts/graded_tube.py --out results/tube_buckle --linear-buckling -1 -0.5 -0.1 --sweep 5 7.5 10
+    ngsgel run graded-tube --out results/graded_tube --sweep 1 3 5 7.5 10 [--quick]
+    ngsgel run graded-tube --out results/tube_buckle --linear-buckling -1 -0.5 -0.1 --sweep 5 7.5 10
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 
 from geometries import tube_section
 from geometries.fields import axial_grading
-from graded_plate import (CHI, add_grading_options, check_bases, continuous_critical_wave_number, linear_buckling_bases,
+from ngsgel.scenes.graded_plate import (CHI, add_grading_options, check_bases, continuous_critical_wave_number, linear_buckling_bases,
                           local_minima, mismatch_strain, onset_curve, scan_path, soft_stretch_load, sweep,
                           write_onset_curve)
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, ramp

@@ -32,7 +32,7 @@ state, flushed per state), ``selection_mu.csv`` and ``selection_stretch.csv`` (p
 selected k and the load where it grows for every case), ``summary.json`` and ``selection.png``;
 ``--tables DIR`` analyses the tables of an earlier run again.
 
-    python scripts/graded_plate_growth.py --out results/graded_growth --sweep 0.25 0.75 2 10 --t-sweep 0.02 0.05 0.1
+    ngsgel run graded-plate-growth --out results/graded_growth --sweep 0.25 0.75 2 10 --t-sweep 0.02 0.05 0.1
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from graded_plate import CHI, build, lowest_eigenvalue, mismatch_strain
+from ngsgel.scenes.graded_plate import CHI, build, lowest_eigenvalue, mismatch_strain
 from ngsgel import FloryRehnerGel, ramp
 from ngsgel.harmonic import HarmonicStability
 from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser

@@ -36,7 +36,7 @@ at the closed-form homogeneous states (bisection in ``mu``), on a list of meshes
 threshold (first contact) of the imperfect layer for a list of amplitudes. ``--study`` runs the
 transient onset for several meshes, time-step limits and amplitudes with wall times.
 
-    python scripts/creases.py --out results/creases [--quick] [--equilibrium] [--study]
+    ngsgel run creases --out results/creases [--quick] [--equilibrium] [--study]
 """
 
 from __future__ import annotations
@@ -45,26 +45,24 @@ import argparse
 import contextlib
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass
 
 import numpy as np
 import ngsolve as ngs
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from geometries.layers import layer_plane  # noqa: E402
-from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain  # noqa: E402
-from ngsgel.contact import crossing_loops, plane_contact, surface_line  # noqa: E402
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries  # noqa: E402
-from ngsgel.patterns import crease_positions, power_law_fit, sample_on_line  # noqa: E402
-from ngsgel.surface import surface_tension as surface_tension_density  # noqa: E402
-from ngsgel.stability import free_matrix, negative_count, spectrum  # noqa: E402
-from ngsgel.stepping import RampError, ramp  # noqa: E402
-from scipy.optimize import brentq  # noqa: E402
-from scipy.stats import spearmanr  # noqa: E402
-from ngsgel.transient import TransientError, TransientProblem, march, time_ramp  # noqa: E402
+from geometries.layers import layer_plane
+from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain
+from ngsgel.contact import crossing_loops, plane_contact, surface_line
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries
+from ngsgel.patterns import crease_positions, power_law_fit, sample_on_line
+from ngsgel.surface import surface_tension as surface_tension_density
+from ngsgel.stability import free_matrix, negative_count, spectrum
+from ngsgel.stepping import RampError, ramp
+from scipy.optimize import brentq
+from scipy.stats import spearmanr
+from ngsgel.transient import TransientError, TransientProblem, march, time_ramp
 
 BIOT_RATIO = 3.383  # Biot (1963): incompressible neo-Hookean half-space, plane strain, lam2/lam1 at wrinkling
 CREASE_RATIO = 2.4  # Hong, Zhao & Suo (2009): energetic crease threshold, lam2/lam1 (strain 0.35)
