@@ -3,25 +3,33 @@
 ``RunDirectory`` makes the folder and writes the run's parameters; ``History`` appends one CSV row
 per step (and mirrors it as JSON lines) and flushes, so a stopped run keeps what it computed;
 ``VTKSeries`` writes ParaView files of named fields with a ``.pvd`` index over time or load.
-``scene_parser`` gives every scene script the same ``--out``/``--quick`` flags (and the gel's and
-the bath's parameters for swelling scenes); ``quick_run`` adds the CI environment to ``--quick``.
+``Progress`` prints status lines (with percent done and time left where the driver knows them);
+``report_progress`` is how the drivers call a user's ``progress``.
+``scene_parser`` gives every scene script the same ``--out``/``--quick``/``--quiet`` flags (and the
+gel's and the bath's parameters for swelling scenes) and ``SceneHelpFormatter``'s help, which shows
+every option's default; ``quick_run`` adds the CI environment to ``--quick``; ``silence_progress``
+carries ``--quiet`` to the progress of the functions a scene calls.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import contextvars
 import csv
 import json
 import math
 import os
 import sys
 import time
-from collections.abc import Mapping
+from collections import deque
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import ngsolve as ngs
 
-__all__ = ["RunDirectory", "History", "VTKSeries", "Progress", "scene_parser", "quick_run"]
+__all__ = ["RunDirectory", "History", "VTKSeries", "Progress", "report_progress", "silence_progress",
+           "SceneHelpFormatter", "scene_parser", "quick_run", "command_options", "resume_arguments"]
 
 
 def _jsonable(value):
@@ -37,16 +45,40 @@ def _jsonable(value):
 
 
 class RunDirectory:
-    """One output folder per run: ``params.json`` first, then whatever the run writes."""
+    """One output folder per run: ``params.json`` first, then whatever the run writes.
 
-    def __init__(self, path: str | Path, *, params: Mapping | None = None):
+    ``resume``: the folder of a stopped run that goes on; its ``params.json`` stays, and must hold
+    ``params`` (the run goes on as it started: a code change in between is refused)."""
+
+    def __init__(self, path: str | Path, *, params: Mapping | None = None, resume: bool = False):
         self.path = Path(path)
+        self.resume = resume
+        if resume:
+            stored = json.loads(self.file("params.json").read_text())
+            now = json.loads(json.dumps(_jsonable(params or {}), default=str))
+            differ = sorted(key for key in stored.keys() | now.keys() if stored.get(key) != now.get(key))
+            if differ:
+                raise ValueError(f"the run in {self.path} started with other parameters {differ} than it would now "
+                                 f"({ {key: stored.get(key) for key in differ} } against "
+                                 f"{ {key: now.get(key) for key in differ} }): it cannot be resumed")
+            return
         self.path.mkdir(parents=True, exist_ok=True)
         if params is not None:
             self.write_json("params.json", params)
 
     def file(self, name: str) -> Path:
         return self.path / name
+
+    def series(self, stem: str) -> Path:
+        """Where a ``VTKSeries`` named ``stem`` goes: ``stem``, or in a resumed run ``stem_resumedN``
+        (the first N not taken; NGSolve numbers a new series from 0, which would overwrite the
+        files of the run's first part)."""
+        if not self.resume:
+            return self.file(stem)
+        n = 1
+        while self.file(f"{stem}_resumed{n}.pvd").exists() or self.file(f"{stem}_resumed{n}.vtu").exists():
+            n += 1
+        return self.file(f"{stem}_resumed{n}")
 
     def write_json(self, name: str, data) -> Path:
         target = self.file(name)
@@ -118,34 +150,173 @@ class VTKSeries:
         self.times.append(time)
 
 
-class Progress:
-    """One status line per step on stderr, with elapsed wall time."""
+# the setting of the innermost ``silence_progress`` block (a context variable, so that it ends
+# with the block even when the block raises)
+_SILENCED = contextvars.ContextVar("ngsgel_progress_silenced", default=False)
 
-    def __init__(self, label: str, *, stream=None):
+
+@contextlib.contextmanager
+def silence_progress(quiet: bool = True):
+    """Within the block, every ``Progress`` made without an explicit ``quiet`` prints nothing (if
+    ``quiet``): how a scene's ``--quiet`` reaches the progress of the functions its ``main`` calls,
+    which make their own ``Progress``."""
+    token = _SILENCED.set(bool(quiet))
+    try:
+        yield
+    finally:
+        _SILENCED.reset(token)
+
+
+def _duration(seconds: float) -> str:
+    seconds = round(seconds)
+    if seconds < 60:
+        return f"{seconds}s"
+    if seconds < 3600:
+        return f"{seconds // 60}m{seconds % 60:02d}s"
+    return f"{seconds // 3600}h{seconds // 60 % 60:02d}m"
+
+
+class Progress:
+    """Status lines on stderr (flushed), one per call: ``[label  elapsed] message``.
+
+    ``progress(message, fraction=f)`` (``0 <= f <= 1``, the share of the run's work done, e.g. of
+    the load ramp) puts the percent done and the estimated time left before the message:
+    ``[label   12.3s]  42% (about 17s left) message``. Time left extrapolates linearly the rate of
+    the last ``window`` reports (the step size of a continuation run and the time step of a march
+    change along the run, so the recent rate predicts better than the average); it is left out
+    until a second report has a larger fraction. A fraction below the previous one starts a new
+    count: one ``Progress`` followed through several load paths.
+
+    ``quiet=True`` prints nothing; ``quiet=None`` (default) is quiet inside ``silence_progress()``.
+    ``clock`` returns seconds (tests pass a fake one).
+    """
+
+    def __init__(self, label: str, *, stream=None, quiet: bool | None = None,
+                 clock: Callable[[], float] = time.perf_counter, window: int = 5):
+        if not (isinstance(window, int) and window >= 1):
+            raise ValueError(f"window must be an integer >= 1, got {window!r}")
         self.label = label
         self.stream = stream or sys.stderr
-        self.start = time.perf_counter()
+        self.quiet = _SILENCED.get() if quiet is None else quiet
+        self.clock = clock
+        self.start = clock()
+        self._recent: deque[tuple[float, float]] = deque(maxlen=window + 1)  # (clock, fraction)
 
-    def __call__(self, message: str) -> None:
-        self.stream.write(f"[{self.label} {time.perf_counter() - self.start:7.1f}s] {message}\n")
+    def __call__(self, message: str, *, fraction: float | None = None) -> None:
+        if self.quiet:
+            return
+        now = self.clock()
+        done = "" if fraction is None else self._done(now, fraction) + " "
+        self.stream.write(f"[{self.label} {now - self.start:7.1f}s] {done}{message}\n")
         self.stream.flush()
 
+    def _done(self, now: float, fraction: float) -> str:
+        if not 0 <= fraction <= 1:  # also refuses nan
+            raise ValueError(f"fraction must lie in [0, 1], got {fraction!r}")
+        if self._recent and fraction < self._recent[-1][1]:
+            self._recent.clear()
+        self._recent.append((now, fraction))
+        then, before = self._recent[0]
+        # 1e-9: 0.29 * 100 is 28.999999999999996
+        text = f"{math.floor(100 * fraction + 1e-9):3d}%"
+        if before < fraction < 1:
+            text += f" (about {_duration((now - then) / (fraction - before) * (1 - fraction))} left)"
+        return text
 
-def scene_parser(doc: str, *, out: str, quick: str, swelling: Mapping[str, float] | None = None
+
+def report_progress(progress: Callable[[str], None] | None, message: str, *, fraction: float | None = None) -> None:
+    """How the drivers (``follow_path``, ``ramp``, ``march``) report a step: to a ``Progress``
+    with the fraction of the run done (if known), to any other callable as ``progress(message)``
+    (the drivers' documented protocol, which user callables keep), to ``None`` not at all."""
+    if progress is None:
+        return
+    if isinstance(progress, Progress):
+        progress(message, fraction=fraction)
+    else:
+        progress(message)
+
+
+class SceneHelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
+    """A scene's ``--help``: its docstring as written, and every option's default after its help.
+
+    No default is added to a flag (its default is its absence) or to a help that already says
+    what the default is: an option whose default (None, "") stands for a rule, such as "the
+    resolution's" or "all"."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if action.nargs == 0 or "default" in text.lower():
+            return text
+        return super()._get_help_string(action)
+
+
+def scene_parser(doc: str, *, out: str, quick: str | None, swelling: Mapping[str, float] | None = None
                  ) -> argparse.ArgumentParser:
     """Command line of a scene script: ``--out`` (default ``out``), ``--quick`` (``quick`` says
-    what it coarsens) and, given ``swelling`` defaults for ``Nv``, ``chi``, ``mu0``, ``mu_ext``
-    and ``ramp``, the options of a gel immersed in a bath."""
-    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    what it coarsens; None: the scene has no quick variant), ``--quiet`` (the scene's ``main``
+    runs within ``silence_progress(args.quiet)``) and, given ``swelling`` defaults for any of
+    ``Nv``, ``chi``, ``mu0``, ``mu_ext`` and ``ramp``, the options of a gel immersed in a bath.
+    Help by ``SceneHelpFormatter``: an option added later shows its default too, so its help
+    states only its meaning and unit (MODEL.md section 1: lengths in the scene length, stresses
+    in kT/v, mu in kT, time in L^2/D)."""
+    parser = argparse.ArgumentParser(description=doc, formatter_class=SceneHelpFormatter)
     parser.add_argument("--out", default=out, help="output folder")
-    parser.add_argument("--quick", action="store_true", help=f"{quick} (also set by env CI)")
+    if quick is not None:
+        parser.add_argument("--quick", action="store_true", help=f"{quick} (also set by env CI)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     if swelling is not None:
-        helps = {"Nv": "cross-link density N v", "chi": "Flory-Huggins parameter",
-                 "mu0": "initial (dry-ish) chemical potential", "mu_ext": "chemical potential of the bath",
-                 "ramp": "duration of the immersion ramp"}
+        helps = {"Nv": "cross-link density N v (dimensionless)", "chi": "Flory-Huggins parameter (dimensionless)",
+                 "mu0": "initial (dry-ish) chemical potential (kT)", "mu_ext": "chemical potential of the bath (kT)",
+                 "ramp": "duration of the immersion ramp (L^2/D)"}
         for name, default in swelling.items():
             parser.add_argument("--" + name.replace("_", "-"), type=float, default=default, help=helps[name])
     return parser
+
+
+# what a resumed run takes as given now, not from the run: where it writes, whether it prints
+_NOT_RESUMED = ("out", "resume", "quiet")
+
+
+def command_options(args: argparse.Namespace) -> dict:
+    """A scene's parsed command line as its ``params.json`` keeps it (``options``), for ``--resume``."""
+    return {key: value for key, value in vars(args).items() if key not in _NOT_RESUMED}
+
+
+def resume_arguments(parser: argparse.ArgumentParser, argv: list[str] | None = None) -> argparse.Namespace:
+    """Parse the command line of a scene that has ``--resume DIR`` (default None). With it, the
+    options are those the run in DIR started with (its ``params.json``'s ``options``,
+    ``command_options``; an option the scene got since: its default), ``out`` is DIR, ``--quiet``
+    as given now; any other option given must agree with the run's. A folder that is not such a
+    run, or whose run has finished (it has ``summary.json``), is refused."""
+    args = parser.parse_args(argv)
+    if args.resume is None:
+        return args
+    folder = Path(args.resume)
+    params = folder / "params.json"
+    if not params.is_file():
+        raise ValueError(f"--resume {folder}: no params.json there, not a run folder")
+    stored = json.loads(params.read_text()).get("options")
+    if stored is None:
+        raise ValueError(f"--resume {folder}: its params.json has no command-line options to go on with (a run "
+                         f"that keeps no checkpoints, started by a function call, or before runs could be resumed)")
+    if (folder / "summary.json").exists():
+        raise ValueError(f"--resume {folder}: the run has finished (summary.json): nothing to resume")
+    # the options given explicitly: parsed into a namespace whose every value is a marker, which
+    # argparse leaves where an option is absent
+    unset = object()
+    given = vars(parser.parse_args(argv, namespace=argparse.Namespace(
+        **{action.dest: unset for action in parser._actions if action.dest != "help"})))
+    if given["out"] is not unset and Path(given["out"]).resolve() != folder.resolve():
+        raise ValueError(f"--out {given['out']} with --resume {folder}: a resumed run writes into its own folder")
+    conflicts = {key: (value, stored.get(key)) for key, value in given.items()
+                 if key not in _NOT_RESUMED and value is not unset and value != stored.get(key, value)}
+    if conflicts:
+        raise ValueError(f"--resume {folder} goes on with the run's own options; given now differently (now, run's): "
+                         f"{conflicts}. Drop them, or start a new run")
+    for key, value in stored.items():
+        setattr(args, key, value)
+    args.out = str(folder)
+    return args
 
 
 def quick_run(args: argparse.Namespace) -> bool:

@@ -9,6 +9,7 @@ import numpy as np
 import ngsolve as ngs
 
 from .newton import LinearSolver, NewtonError, NewtonResult
+from .output import report_progress
 
 __all__ = ["ramp", "tangent_predictor", "RampResult", "RampError", "JumpError"]
 
@@ -44,7 +45,7 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
          min_step: float | None = None, max_step: float | None = None, grow: float = 1.5,
          easy_iterations: int = 4, on_step: Callable[[float, NewtonResult], bool | None] | None = None,
          newton_options: dict | None = None, tangent_start: bool = True,
-         max_correction: float | None = None) -> RampResult:
+         max_correction: float | None = None, progress: Callable[[str], None] | None = None) -> RampResult:
     """Move ``parameter`` to ``target`` through converged equilibria of ``problem``.
 
     The first guess of the first step is the tangent (Euler) predictor from the converged start
@@ -71,6 +72,10 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
     shrinks with the step (a snapping arch: 0.05-0.4 along its branch, 1.6 for the step ending
     next to its limit point, 3.3 for the step across it), so halving such a step leads back to the
     path or stalls at the fold (``RampError``).
+
+    ``progress``: called with one line at the start and one per converged step
+    (``progress(message)``; a ``ngsgel.output.Progress`` also gets the fraction of the way to
+    ``target`` done, for its percent done and time left).
     """
     start = parameter.Get()
     span = target - start
@@ -87,6 +92,7 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
     if max_correction is not None and not max_correction > 0:
         raise ValueError(f"max_correction must be a number > 0 (or None), got {max_correction!r}")
     direction = np.sign(span)
+    report_progress(progress, f"start: parameter {start:.6g}, target {target:.6g}", fraction=0.0)
     result = RampResult(converged=False)
     previous = None  # (value, state) of the converged state before the current one
     current = (start, problem.save_state())
@@ -128,6 +134,9 @@ def ramp(problem, parameter: ngs.Parameter, target: float, *, step: float | None
         previous, current = current, (new, problem.save_state())
         result.values.append(new)
         result.newton.append(newton_result)
+        report_progress(progress, f"step {result.steps}: parameter {new:.6g}, iterations {newton_result.iterations}"
+                        + (f", cut-backs so far {result.cutbacks}" if result.cutbacks else ""),
+                        fraction=(new - start) / span)
         if on_step is not None and on_step(new, newton_result):
             result.stopped = True
             result.message = f"stopped by on_step at {new:g}"

@@ -36,6 +36,7 @@ import ngsolve as ngs
 from .kinematics import Kinematics
 from .materials import FloryRehnerGel, Material
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
+from .output import report_progress
 from .problem import EquilibriumProblem, GelBody, quadrature_rules
 
 __all__ = ["TransientProblem", "StepRecord", "TransientResult", "TransientError", "march", "time_ramp"]
@@ -429,7 +430,7 @@ def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: f
           dt_min: float | None = None, dt_over_t: float | None = 0.5, grow: float = 1.5, cut: float = 0.25,
           easy_iterations: int = 4, output_times: Iterable[float] = (),
           on_step: Callable[[TransientProblem, StepRecord], None] | None = None,
-          newton_options: dict | None = None) -> TransientResult:
+          newton_options: dict | None = None, progress: Callable[[str], None] | None = None) -> TransientResult:
     """Advance ``problem`` from its current time to ``t_end``.
 
     The first step is ``dt_start``; later steps grow by ``grow`` after a step that took at
@@ -438,7 +439,9 @@ def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: f
     ``sqrt(t)`` regime after a boundary step; ``None`` disables it). A failed step is retried
     with ``dt * cut``; below ``dt_min`` a ``TransientError`` is raised. Steps end exactly on
     ``output_times`` and ``t_end`` (records marked ``output``). ``on_step(problem, record)``
-    runs after every converged step.
+    runs after every converged step. ``progress``: called with one line at the start and one per
+    converged step (``progress(message)``; a ``ngsgel.output.Progress`` also gets the fraction of
+    the march's time span done, for its percent done and time left).
     """
     t0 = problem.time
     span = t_end - t0
@@ -451,6 +454,7 @@ def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: f
     if not (grow >= 1 and 0 < cut < 1):
         raise ValueError(f"need grow >= 1 and 0 < cut < 1, got grow={grow}, cut={cut}")
     stops = sorted({float(s) for s in output_times if t0 < s < t_end} | {float(t_end)})
+    report_progress(progress, f"start: t = {t0:.6g}, end {t_end:.6g}", fraction=0.0)
     result = TransientResult(completed=False)
     dt = dt_start
     cutbacks = 0
@@ -477,6 +481,9 @@ def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: f
         record.cutbacks, record.output = cutbacks, landing
         cutbacks = 0
         result.records.append(record)
+        report_progress(progress, f"t = {record.time:.6g}, dt = {record.dt:.3g}, iterations {record.iterations}"
+                        + (f", cut-backs {record.cutbacks}" if record.cutbacks else ""),
+                        fraction=(record.time - t0) / span)
         if on_step is not None:
             on_step(problem, record)
         # a step shortened to land on an output time does not shrink the next one

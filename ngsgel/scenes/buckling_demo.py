@@ -9,7 +9,6 @@ blue and unstable ones in red, limit points marked. Writes ``params.json``, ``hi
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import matplotlib
@@ -21,7 +20,7 @@ from ngsolve.meshes import MakeStructured2DMesh
 
 from ngsgel import EquilibriumProblem, NeoHookeanFilm, PlaneStrain
 from ngsgel.continuation import PathResult, StabilityOptions, follow_path
-from ngsgel.output import History, Progress, RunDirectory
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
 
 def arch_problem(*, rise: float, thickness: float, elements: int, order: int, load_scale: float):
@@ -70,14 +69,14 @@ def plot_path(result: PathResult, qoi: str, path) -> None:
 
 
 def main(argv=None) -> PathResult:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="out/buckling_demo", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="coarse mesh, for tests")
-    parser.add_argument("--rise", type=float, default=0.06)
-    parser.add_argument("--thickness", type=float, default=0.03)
-    parser.add_argument("--target", type=float, default=0.06, help="final load parameter")
+    parser = scene_parser(__doc__, out="out/buckling_demo", quick="coarse mesh")
+    parser.add_argument("--rise", type=float, default=0.06, help="rise of the arch / half span")
+    parser.add_argument("--thickness", type=float, default=0.03, help="thickness / half span")
+    parser.add_argument("--target", type=float, default=0.06,
+                        help="final load parameter lambda, dimensionless (traction lambda 1e-4 E, E the arch's "
+                             "Young's modulus)")
     args = parser.parse_args(argv)
-    elements, order, max_step = (8, 2, 0.05) if args.quick else (24, 3, 0.02)
+    elements, order, max_step = (8, 2, 0.05) if quick_run(args) else (24, 3, 0.02)
     params = {"rise": args.rise, "thickness": args.thickness, "elements": elements, "order": order,
               "E": 1.0, "nu": 0.3, "load_scale": 1e-4, "target": args.target, "max_step": max_step}
     run = RunDirectory(args.out, params=params)
@@ -86,7 +85,7 @@ def main(argv=None) -> PathResult:
     with History(run.file("history.csv")) as history:
         result = follow_path(problem, load, method="arclength", step=0.01, max_step=max_step, target=args.target,
                              qoi={"deflection": deflection}, stability=StabilityOptions(eigenvalues=2),
-                             history=history, progress=Progress("buckling_demo"))
+                             history=history, progress=Progress("buckling_demo", quiet=args.quiet))
     plot_path(result, "deflection", run.file("curve.png"))
     return result
 

@@ -16,7 +16,6 @@ fixed heights y.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import time
@@ -27,6 +26,7 @@ import ngsolve as ngs
 
 from ngsgel.scenes import creases
 from ngsgel.contact import surface_line
+from ngsgel.output import Progress, scene_parser
 from ngsgel.transient import march
 from ngsgel.scenes.creases import tip_geometry
 
@@ -94,31 +94,38 @@ def describe(r: dict, times: list[float], levels: list[float]) -> list[dict]:
 
 
 def main(argv=None) -> list[dict]:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/crease_tip")
+    # lengths in units of the layer thickness H, times in H^2/D (creases.Setup)
+    parser = scene_parser(__doc__, out="results/crease_tip", quick=None, swelling=dict(mu0=-0.1, ramp=1e-3))
     parser.add_argument("--tip-h", default="0.005,0.0025,0.00125,0.000625,0.0003125",
-                        help="surface element sizes at the crease tip (x < --tip-length), one run each")
-    parser.add_argument("--top-h", type=float, default=0.005, help="surface element size elsewhere (capped by tip-h)")
-    parser.add_argument("--tip-length", type=float, default=creases.Setup.tip_length)
-    parser.add_argument("--maxh", type=float, default=creases.Setup.maxh, help="element size in the bulk")
-    parser.add_argument("--mu0", type=float, default=-0.1)
-    parser.add_argument("--amplitude", type=float, default=0.1)
-    parser.add_argument("--surface-tension", type=float, default=creases.SURFACE_TENSION)
-    parser.add_argument("--ramp", type=float, default=1e-3)
-    parser.add_argument("--t-end", type=float, default=2.0)
-    parser.add_argument("--t-fine", type=float, default=0.3, help="from here on steps of --dt-fine")
-    parser.add_argument("--dt-max", type=float, default=0.01)
-    parser.add_argument("--dt-fine", type=float, default=0.001)
-    parser.add_argument("--times", default="0.2,0.3,0.4", help="comparison times")
-    parser.add_argument("--levels", default="1.065,1.08,1.1", help="heights y of the half-width")
-    parser.add_argument("--threads", type=int, default=1)
+                        help="comma-separated surface element sizes at the crease tip (x < --tip-length) / H, "
+                             "one run each")
+    parser.add_argument("--top-h", type=float, default=0.005,
+                        help="surface element size elsewhere / H (at least --tip-h)")
+    parser.add_argument("--tip-length", type=float, default=creases.Setup.tip_length,
+                        help="length of the top's part with --tip-h elements / H")
+    parser.add_argument("--maxh", type=float, default=creases.Setup.maxh, help="element size in the bulk / H")
+    parser.add_argument("--amplitude", type=float, default=0.1, help="trough depth / W (W the cell width)")
+    parser.add_argument("--surface-tension", type=float, default=creases.SURFACE_TENSION,
+                        help="surface energy of the top, gamma / (G H), dimensionless")
+    parser.add_argument("--t-end", type=float, default=2.0, help="end time (H^2/D; the run stops after the onset)")
+    parser.add_argument("--t-fine", type=float, default=0.3, help="from this time on steps of --dt-fine (H^2/D)")
+    parser.add_argument("--dt-max", type=float, default=0.01, help="largest time step before --t-fine (H^2/D)")
+    parser.add_argument("--dt-fine", type=float, default=0.001, help="time step after --t-fine (H^2/D)")
+    parser.add_argument("--times", default="0.2,0.3,0.4", help="comma-separated comparison times (H^2/D)")
+    parser.add_argument("--levels", default="1.065,1.08,1.1", help="comma-separated heights y of the half-width / H")
+    parser.add_argument("--threads", type=int, default=1, help="NGSolve threads")
     args = parser.parse_args(argv)
     ngs.SetNumThreads(args.threads)
     times = [float(t) for t in args.times.split(",")]
     levels = [float(v) for v in args.levels.split(",")]
     os.makedirs(args.out, exist_ok=True)
     table = []
-    for tip_h in (float(h) for h in args.tip_h.split(",")):
+    tip_hs = [float(h) for h in args.tip_h.split(",")]
+    # a line per run, no fraction done: each halving of tip_h costs several times the one before,
+    # so a time left extrapolated over the runs would mislead
+    progress = Progress("crease_tip_convergence", quiet=args.quiet)
+    for case, tip_h in enumerate(tip_hs):
+        progress(f"run {case + 1} of {len(tip_hs)}: tip_h {tip_h:g}")
         setup = creases.Setup(mu0=args.mu0, amplitude=args.amplitude, top_h=max(args.top_h, tip_h), tip_h=tip_h,
                               tip_length=args.tip_length, surface_tension=args.surface_tension, ramp=args.ramp,
                               maxh=args.maxh)

@@ -41,10 +41,8 @@ transient onset for several meshes, time-step limits and amplitudes with wall ti
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import math
-import os
 import time
 from dataclasses import dataclass
 
@@ -55,7 +53,7 @@ import ngsolve as ngs
 from geometries.layers import layer_plane
 from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain
 from ngsgel.contact import crossing_loops, plane_contact, surface_line
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 from ngsgel.patterns import crease_positions, power_law_fit, sample_on_line
 from ngsgel.surface import surface_tension as surface_tension_density
 from ngsgel.stability import free_matrix, negative_count, spectrum
@@ -818,51 +816,62 @@ STUDY_CASES = [("amplitude", {"amplitude": 0.05}, None), ("amplitude", {"amplitu
 
 
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/creases")
-    parser.add_argument("--quick", action="store_true", help="coarse mesh (also set by env CI)")
+    # lengths in units of the scene length L, which --thickness (H) is by default; times in L^2/D
+    parser = scene_parser(__doc__, out="results/creases", quick="coarse mesh",
+                          swelling=dict(Nv=Setup.Nv, chi=Setup.chi, mu0=Setup.mu0, ramp=Setup.ramp))
     parser.add_argument("--equilibrium", action="store_true", help="quasi-static counterpart instead")
     parser.add_argument("--study", action="store_true", help="onset vs mesh, dt and imperfection")
     parser.add_argument("--study-cases", choices=("sharp", "surface"), default="surface",
-                        help="--study: 'surface' (default): mesh, imperfection and gamma with surface energy; "
+                        help="--study: 'surface': mesh, imperfection and gamma with surface energy; "
                         "'sharp': the sharp-interface study (mesh, dt, imperfection, stabiliser; gamma = 0)")
     parser.add_argument("--cases", default="", help="--study: comma-separated indices of the cases to run (default all)")
-    parser.add_argument("--Nv", type=float, default=Setup.Nv)
-    parser.add_argument("--chi", type=float, default=Setup.chi)
-    parser.add_argument("--mu0", type=float, default=Setup.mu0)
-    parser.add_argument("--width", type=float, default=Setup.width, help="cell width W (half the crease period)")
-    parser.add_argument("--thickness", type=float, default=Setup.thickness)
+    parser.add_argument("--width", type=float, default=Setup.width, help="cell width W, half the crease period (L)")
+    parser.add_argument("--thickness", type=float, default=Setup.thickness,
+                        help="layer thickness H (L: at 1, every length is a fraction of H)")
     parser.add_argument("--amplitude", type=float, default=Setup.amplitude,
                         help="trough depth / W (with --seed: max |w| / W of the random imperfection)")
     parser.add_argument("--trough", choices=("mirror", "centre"), default=Setup.trough,
-                        help="where the trough lies: on the left mirror line (default) or in the middle of the cell")
-    parser.add_argument("--seed", type=int, default=None, help="random mirror-symmetric imperfection "
-                        "(modes cos(pi m x / W)) instead of the trough on the left mirror line")
+                        help="where the trough lies: mirror, on the left mirror line, or centre, in the middle "
+                             "of the cell")
+    parser.add_argument("--seed", type=int, default=None, help="seed of a random mirror-symmetric imperfection "
+                        "(modes cos(pi m x / W)) instead of the trough (default: none, the trough)")
     parser.add_argument("--wavelength", type=float, default=Setup.wavelength,
-                        help="--seed: shortest wavelength of the random imperfection")
+                        help="--seed: shortest wavelength of the random imperfection (L)")
     parser.add_argument("--no-self-contact", action="store_true",
                         help="leave out the self-contact of the top (creases off the mirror lines then stop the run)")
     parser.add_argument("--after-onset", type=float, default=None,
                         help="march until this multiple of the onset time (default 1.5; 1.2 with --quick)")
-    parser.add_argument("--crease-meshes", default="", help="--equilibrium: surface sizes for the crease threshold "
-                        "(default: the middle two of the linear-threshold meshes)")
-    parser.add_argument("--amplitudes", default="0.1,0.03,0.01", help="--equilibrium: imperfections (a/W) for the crease threshold")
-    parser.add_argument("--top-h", type=float, default=None, help="surface element size")
-    parser.add_argument("--tip-h", type=float, default=None, help="finer surface element size on x < --tip-length, "
+    parser.add_argument("--crease-meshes", default="", help="--equilibrium: comma-separated surface element sizes "
+                        "(L) for the crease threshold (default: the middle two of the linear-threshold meshes)")
+    parser.add_argument("--amplitudes", default="0.1,0.03,0.01",
+                        help="--equilibrium: comma-separated imperfections a / W for the crease threshold")
+    parser.add_argument("--top-h", type=float, default=None,
+                        help=f"surface element size (L; default {Setup.top_h:g}, quick 0.02)")
+    parser.add_argument("--tip-h", type=float, default=None, help="finer surface element size (L) on x < --tip-length, "
                         "where the crease tip on the mirror line forms (default: top_h everywhere)")
-    parser.add_argument("--tip-length", type=float, default=Setup.tip_length)
-    parser.add_argument("--maxh", type=float, default=Setup.maxh)
-    parser.add_argument("--penalty", type=float, default=Setup.penalty)
-    parser.add_argument("--ramp", type=float, default=Setup.ramp)
-    parser.add_argument("--viscosity", type=float, default=Setup.viscosity, help="stabiliser eta/G")
+    parser.add_argument("--tip-length", type=float, default=Setup.tip_length,
+                        help="length of the top's part with --tip-h elements (L)")
+    parser.add_argument("--maxh", type=float, default=Setup.maxh, help="element size in the bulk (L)")
+    parser.add_argument("--penalty", type=float, default=Setup.penalty,
+                        help="contact stiffness / (G / top-h), dimensionless")
+    parser.add_argument("--viscosity", type=float, default=Setup.viscosity,
+                        help="pseudo-viscous stabiliser eta / G (L^2/D)")
     parser.add_argument("--surface-tension", type=float, default=Setup.surface_tension,
-                        help="surface energy of the top, gamma/(G H) (elastocapillary length over thickness; "
-                        f"default {SURFACE_TENSION}: gamma = 0.07 N/m on this gel, G = 1.3e5 Pa, at H = 27 um, "
-                        "or on a gel with G = 3.5e3 Pa at H = 1 mm; 0: none, the sharp-interface model)")
-    parser.add_argument("--t-end", type=float, default=2.0, help="end time (the run stops earlier, after the onset)")
-    parser.add_argument("--dt-max", type=float, default=None)
+                        help="surface energy of the top, gamma / (G H), dimensionless: the elastocapillary length "
+                        f"over the thickness ({SURFACE_TENSION}: gamma = 0.07 N/m on this gel, G = 1.3e5 Pa, at "
+                        "H = 27 um, or on a gel with G = 3.5e3 Pa at H = 1 mm; 0: none, the sharp-interface model)")
+    parser.add_argument("--t-end", type=float, default=2.0,
+                        help="end time (L^2/D; the run stops earlier, after the onset)")
+    parser.add_argument("--dt-max", type=float, default=None,
+                        help="largest time step (L^2/D; default: none, steps grow with the time elapsed)")
     args = parser.parse_args(argv)
-    quick = args.quick or bool(os.environ.get("CI"))
+    with silence_progress(args.quiet):
+        return _main(args)
+
+
+def _main(args) -> dict:
+    """The run the parsed options ask for."""
+    quick = quick_run(args)
     top_h = args.top_h if args.top_h is not None else (0.02 if quick else Setup.top_h)
     setup = Setup(Nv=args.Nv, chi=args.chi, mu0=args.mu0, thickness=args.thickness, width=args.width,
                   amplitude=args.amplitude, top_h=top_h, tip_h=args.tip_h, tip_length=args.tip_length, maxh=max(args.maxh, top_h) if quick else args.maxh,

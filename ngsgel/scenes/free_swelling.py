@@ -16,7 +16,7 @@ import numpy as np
 from ngsolve.meshes import MakeStructured2DMesh, MakeStructured3DMesh
 
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, PlaneStrain, Solid3D, ramp
-from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser, silence_progress
 
 CHIS = (0.1, 0.5, 0.8, 1.0)
 NV = 1e-3
@@ -106,7 +106,8 @@ def plot(rows: list[dict], path) -> None:
 def main(argv=None) -> None:
     parser = scene_parser(__doc__, out="results/free_swelling", quick="fewer states")
     args = parser.parse_args(argv)
-    rows = run(args.out, quick=quick_run(args))
+    with silence_progress(args.quiet):
+        rows = run(args.out, quick=quick_run(args))
     worst = max(r["rel_error"] for r in rows)
     print(f"{len(rows)} FE states, largest relative error against the closed form {worst:.2e}; "
           f"results in {args.out}")

@@ -28,11 +28,9 @@ switch of the first-buckling film and the Efo ranges where each film buckles bef
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import math
-import os
 import time
 from dataclasses import asdict, dataclass
 
@@ -50,7 +48,7 @@ from ngsgel.continuation import BorderedCorrector, follow_path
 from ngsgel.scenes.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset,
                               thesis_ring_estimate)
 from ngsgel.newton import NewtonError
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number
 from ngsgel.stability import free_matrix, load_rate, mass_matrix, mode_function, negative_count
 from ngsgel.stepping import ramp
@@ -736,33 +734,36 @@ def main(argv=None):
 
 
 def _main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="out/gears", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="coarse case for tests")
-    parser.add_argument("--efi", type=float, default=12.5, help="Efi/Es")
-    parser.add_argument("--efo", type=float, default=7.23, help="Efo/Es")
-    parser.add_argument("--ri-tfi", type=float, default=50.0, help="Ri/tfi")
-    parser.add_argument("--ro-tfo", type=float, default=100.0, help="Ro/tfo")
-    parser.add_argument("--nu-film", type=float, default=0.3)
-    parser.add_argument("--volume", type=float, default=0.7, help="final volume fraction of a free gel")
+    parser = scene_parser(__doc__, out="out/gears", quick="coarse case")
+    parser.add_argument("--efi", type=float, default=12.5, help="inner film modulus Efi / Es (dimensionless)")
+    parser.add_argument("--efo", type=float, default=7.23, help="outer film modulus Efo / Es (dimensionless)")
+    parser.add_argument("--ri-tfi", type=float, default=50.0, help="Ri / tfi, inner radius over inner film thickness")
+    parser.add_argument("--ro-tfo", type=float, default=100.0, help="Ro / tfo, outer radius over outer film thickness")
+    parser.add_argument("--nu-film", type=float, default=0.3, help="Poisson ratio of the films (dimensionless)")
+    parser.add_argument("--volume", type=float, default=0.7,
+                        help="final volume of a free gel / its initial volume (dimensionless)")
     parser.add_argument("--axial", choices=("fixed", "free"), default="fixed",
                         help="fixed: plane strain (MODEL.md); free: generalized plane strain, a long tube with "
                              "free ends (uniform axial stretch, zero axial force)")
-    parser.add_argument("--n-theta", type=int, default=None, help="cells around (multiple of 4)")
-    parser.add_argument("--order", type=int, default=None)
-    parser.add_argument("--maxh", type=float, default=None, help="gel cell size away from the films")
-    parser.add_argument("--film-layers", type=int, default=None, help="cells across each film")
+    parser.add_argument("--n-theta", type=int, default=None,
+                        help=f"cells around, a multiple of 4 (default {Resolution().n_theta}, quick {QUICK.n_theta})")
+    parser.add_argument("--order", type=int, default=None,
+                        help=f"polynomial order of the displacement (default {Resolution().order}, quick {QUICK.order})")
+    parser.add_argument("--maxh", type=float, default=None,
+                        help=f"gel cell size away from the films / Ri (default {Resolution().maxh:g}, quick {QUICK.maxh:g})")
+    parser.add_argument("--film-layers", type=int, default=None,
+                        help=f"cells across each film (default {Resolution().film_layers}, quick {QUICK.film_layers})")
     parser.add_argument("--teeth-threshold", type=float, default=0.5,
                         help="teeth where the wave amplitude is at least this many film thicknesses")
     parser.add_argument("--onset-only", action="store_true",
                         help="stop after the located onset (no post-buckling path)")
     parser.add_argument("--sweep", choices=(*SWEEPS, "convergence"), default=None,
                         help="onset against one parameter (" + "; ".join(f"{k}: {v[1]}" for k, v in SWEEPS.items())
-                        + ") or the onset at several resolutions")
+                        + ") or the onset at several resolutions (default: none, a single run)")
     parser.add_argument("--values", type=float, nargs="+", default=None,
-                        help="values of the swept parameter (default: the sweep's own)")
+                        help="values of the swept parameter, dimensionless like it (default: the sweep's own)")
     parser.add_argument("--resolutions", nargs="+", default=None, metavar="N:P:H:L",
-                        help="resolutions of --sweep convergence as n_theta:order:maxh:film_layers "
+                        help="resolutions of --sweep convergence as n_theta:order:maxh:film_layers, maxh / Ri "
                              "(default: the table of docs/gears.md)")
     parser.add_argument("--switch-amplitude", type=float, default=None,
                         help="amplitude of the first buckled state, in thicknesses of the buckling film "
@@ -771,7 +772,7 @@ def _main(argv=None):
                         help="NGSolve threads (1: on the shared 2-core machine, load average ~9, one thread "
                              "was 2x faster for the 2D solves and 30x for the radial 1D analysis)")
     args = parser.parse_args(argv)
-    quick = args.quick or bool(os.environ.get("CI"))
+    quick = quick_run(args)
     scene = Scene(efi=args.efi, efo=args.efo, ri_tfi=args.ri_tfi, ro_tfo=args.ro_tfo, nu_film=args.nu_film,
                   volume=args.volume, axial=args.axial)
     default = QUICK if quick else Resolution()
@@ -792,7 +793,7 @@ def _main(argv=None):
     if not isinstance(args.threads, int) or args.threads < 1:
         raise ValueError(f"threads must be a positive integer, got {args.threads!r}")
     ngs.SetNumThreads(args.threads)
-    progress = Progress("gears")
+    progress = Progress("gears", quiet=args.quiet)
     if args.sweep is None:
         summary = run_single(scene, res, args.out, threshold=args.teeth_threshold, progress=progress,
                              quick=quick, post_buckling=not args.onset_only, switch_amplitude=args.switch_amplitude)

@@ -56,7 +56,7 @@ from geometries.fields import radial_grading
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, follow_path, ramp
 from ngsgel.continuation import PathResult, StabilityOptions
 from ngsgel.harmonic import HarmonicStability, InstabilityOnset, first_harmonic_instability, stress_rate
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 from ngsgel.patterns import penetration_depth, power_law_fit
 from ngsgel.supports import vertex_dof
 
@@ -642,35 +642,44 @@ def plot_onset_curves(curves: dict, path) -> None:
     plt.close(fig)
 
 
-def add_grading_options(parser, *, t: float, t_help: str, maxh: float, kmax: int) -> None:
-    """The options every graded-gel scene shares: exponent(s), thickness, mesh, start, scan."""
-    parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
-    parser.add_argument("--sweep", type=float, nargs="+", help="run these grading exponents p instead of --p")
+def add_grading_options(parser, *, t: float, t_help: str, length: str, maxh: float, kmax: int) -> None:
+    """The options every graded-gel scene shares: exponent(s), thickness, mesh, start, scan.
+    ``length`` names the scene's unit of length (``R``, ``Ri``)."""
+    parser.add_argument("--p", type=float, default=10.0, help="grading exponent (dimensionless)")
+    parser.add_argument("--sweep", type=float, nargs="+",
+                        help="run these grading exponents p instead of --p (default: --p only)")
     parser.add_argument("--t", type=float, default=t, help=t_help)
-    parser.add_argument("--maxh", type=float, default=maxh, help="cell size along the section")
-    parser.add_argument("--order", type=int, default=3)
-    parser.add_argument("--mu0", type=float, default=-1.0, help="starting chemical potential")
-    parser.add_argument("--kmax", type=int, default=kmax, help="largest wave number scanned")
+    parser.add_argument("--maxh", type=float, default=maxh, help=f"cell size along the section / {length}")
+    parser.add_argument("--order", type=int, default=3, help="polynomial order of the displacement")
+    parser.add_argument("--mu0", type=float, default=-1.0, help="starting chemical potential (kT)")
+    parser.add_argument("--kmax", type=int, default=kmax, help="largest angular wave number scanned")
 
 
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_plate", quick="coarse section, k <= 8")
-    add_grading_options(parser, t=0.01, t_help="thickness / radius", maxh=0.02, kmax=15)
-    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre")
-    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge")
+    add_grading_options(parser, t=0.01, t_help="thickness t / R", length="R", maxh=0.02, kmax=15)
+    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre (dimensionless)")
+    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge (dimensionless)")
     parser.add_argument("--layers", type=int, default=2, help="cells through the thickness (even)")
     parser.add_argument("--imperfection", type=float, default=0.0,
-                        help="top shear dead load / (E0 t) (default 0: branch switching, no imperfection)")
+                        help="top shear dead load / (E0 t), dimensionless (0: branch switching, no imperfection)")
     parser.add_argument("--onset-curve", action="store_true",
                         help="onset mu_c(k) of every k = 1 .. kmax on the flat path, for every p (--p or --sweep) "
                              "and t (--t or --t-sweep)")
-    parser.add_argument("--t-sweep", type=float, nargs="+", help="with --onset-curve: these thicknesses instead of --t")
+    parser.add_argument("--t-sweep", type=float, nargs="+",
+                        help="with --onset-curve: these thicknesses t / R instead of --t (default: --t only)")
     parser.add_argument("--end-only", action="store_true",
                         help="with --onset-curve: only the lowest eigenvalue of every k at mu = 0 (no onsets)")
     parser.add_argument("--linear-buckling", type=float, nargs="+", metavar="MU",
                         help="instead: the eigenvalue buckling step (Abaqus *BUCKLE) of the flat disk at each of "
-                             "these mu, k = 2 .. kmax, for every p (--p or --sweep)")
+                             "these mu (kT), k = 2 .. kmax, for every p (--p or --sweep) (default: none, the path)")
     args = parser.parse_args(argv)
+    with silence_progress(args.quiet):
+        return _main(args)
+
+
+def _main(args) -> dict:
+    """The run the parsed options ask for."""
     options = dict(n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, layers=args.layers, order=args.order,
                    mu0=args.mu0, kmax=args.kmax, imperfection=args.imperfection,
                    quick=quick_run(args))

@@ -47,7 +47,7 @@ import numpy as np
 from ngsgel.scenes.graded_plate import CHI, build, lowest_eigenvalue, mismatch_strain
 from ngsgel import FloryRehnerGel, ramp
 from ngsgel.harmonic import HarmonicStability
-from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser, silence_progress
 from ngsgel.patterns import power_law_fit
 from ngsgel.stability import fastest_growing
 
@@ -224,21 +224,25 @@ def plot_selection(analyses: dict, path) -> None:
 
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_growth", quick="coarse section, k <= 12, 10 states")
-    parser.add_argument("--p", type=float, default=10.0, help="grading exponent of the t/R sweep")
-    parser.add_argument("--t", type=float, default=0.01, help="thickness / radius of the p sweep")
-    parser.add_argument("--sweep", type=float, nargs="+", default=[10.0], help="grading exponents p (at --t)")
-    parser.add_argument("--t-sweep", type=float, nargs="+", default=[], help="thicknesses t/R (at --p)")
-    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre")
-    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge")
-    parser.add_argument("--maxh", type=float, default=0.02, help="cell size along the section")
-    parser.add_argument("--order", type=int, default=3)
-    parser.add_argument("--mu-low", type=float, default=-0.35, help="first state (below every onset)")
+    parser.add_argument("--p", type=float, default=10.0, help="grading exponent of the t/R sweep (dimensionless)")
+    parser.add_argument("--t", type=float, default=0.01, help="thickness t / R of the p sweep")
+    parser.add_argument("--sweep", type=float, nargs="+", default=[10.0],
+                        help="grading exponents p (at --t), dimensionless")
+    parser.add_argument("--t-sweep", type=float, nargs="+", default=[], help="thicknesses t / R (at --p)")
+    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the centre (dimensionless)")
+    parser.add_argument("--nR", type=float, default=1e-3, help="Nv at the edge (dimensionless)")
+    parser.add_argument("--maxh", type=float, default=0.02, help="cell size along the section / R")
+    parser.add_argument("--order", type=int, default=3, help="polynomial order of the displacement")
+    parser.add_argument("--mu-low", type=float, default=-0.35,
+                        help="chemical potential of the first state, below every onset (kT)")
     parser.add_argument("--points", type=int, default=30, help="states, equally spaced in the soft stretch")
-    parser.add_argument("--tables", help="analyse the eigenvalue tables in this folder (of an earlier run)")
+    parser.add_argument("--tables", help="analyse the eigenvalue tables in this folder (of an earlier run) "
+                                         "instead of computing them (default: compute)")
     args = parser.parse_args(argv)
-    summary = run(args.out, ps=args.sweep, ts=args.t_sweep, p=args.p, t=args.t, n0=args.n0, nR=args.nR,
-                  maxh=args.maxh, order=args.order, mu_low=args.mu_low, points=args.points, tables=args.tables,
-                  quick=quick_run(args))
+    with silence_progress(args.quiet):
+        summary = run(args.out, ps=args.sweep, ts=args.t_sweep, p=args.p, t=args.t, n0=args.n0, nR=args.nR,
+                      maxh=args.maxh, order=args.order, mu_low=args.mu_low, points=args.points, tables=args.tables,
+                      quick=quick_run(args))
     for case in summary["cases"]:
         print(f"p = {case['p']:g}, t/R = {case['t']:g}: first unstable k = {case['k_first_unstable']}, "
               f"most unstable at mu = 0: k = {case['k_most_unstable_end']}")

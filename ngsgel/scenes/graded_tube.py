@@ -34,7 +34,7 @@ from ngsgel.scenes.graded_plate import (CHI, add_grading_options, check_bases, c
                           local_minima, mismatch_strain, onset_curve, scan_path, soft_stretch_load, sweep,
                           write_onset_curve)
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, ramp
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 
 RI = 1.0
 
@@ -231,15 +231,22 @@ def plot(profiles: dict, path) -> None:
 
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_tube", quick="coarse section, k <= 12")
-    add_grading_options(parser, t=0.02, t_help="wall thickness / inner radius", maxh=0.05, kmax=20)
-    parser.add_argument("--L", type=float, default=2.0, help="height / inner radius")
-    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the base")
-    parser.add_argument("--nL", type=float, default=1e-3, help="Nv at the head")
+    add_grading_options(parser, t=0.02, t_help="wall thickness t / Ri", length="Ri", maxh=0.05, kmax=20)
+    parser.add_argument("--L", type=float, default=2.0, help="height L / Ri")
+    parser.add_argument("--n0", type=float, default=1e-2, help="Nv at the base (dimensionless)")
+    parser.add_argument("--nL", type=float, default=1e-3, help="Nv at the head (dimensionless)")
     parser.add_argument("--onset-curve", action="store_true",
                         help="onset mu_c(k) of every k = 1 .. kmax on the trumpet path and the continuous critical k")
     parser.add_argument("--linear-buckling", type=float, nargs="+", metavar="MU",
-                        help="instead: the eigenvalue buckling step (Abaqus *BUCKLE) of the trumpet at each of these mu")
+                        help="instead: the eigenvalue buckling step (Abaqus *BUCKLE) of the trumpet at each of these "
+                             "mu (kT) (default: none, the path)")
     args = parser.parse_args(argv)
+    with silence_progress(args.quiet):
+        return _main(args)
+
+
+def _main(args) -> dict:
+    """The run the parsed options ask for."""
     options = dict(n0=args.n0, nL=args.nL, t=args.t, L=args.L, maxh=args.maxh, order=args.order, mu0=args.mu0, kmax=args.kmax,
                    quick=quick_run(args))
     if args.linear_buckling:

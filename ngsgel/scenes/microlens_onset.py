@@ -16,14 +16,12 @@ lambda > 13.5, 4 for 9.9-13.5, 5 for 9.2-9.9, axisymmetric below 9.2) are tabula
 
 from __future__ import annotations
 
-import argparse
 import math
-import os
 import time
 
 from ngsgel.scenes.microlens import THICKNESS_RATIO, AxisymmetricCap, Indentation, SectionResolution
 from ngsgel.harmonic import first_harmonic_instability
-from ngsgel.output import History, Progress, RunDirectory
+from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
 
 def fitch_lambda(H: float, t: float, nu: float = 0.5) -> float:
@@ -59,21 +57,20 @@ def onset(H: float, *, maxh: float, layers: int = 2, order: int = 3, apex: float
 
 
 def main(argv=None) -> list[dict]:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default="results/microlens_onset")
-    parser.add_argument("--H", type=float, nargs="+", default=[0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4])
-    parser.add_argument("--maxh", type=float, default=0.01, help="cell length along the section")
-    parser.add_argument("--order", type=int, default=3)
-    parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch")
-    parser.add_argument("--kmax", type=int, default=8)
-    parser.add_argument("--quick", action="store_true", help="coarse, H = 0.3 only (also set by env CI)")
+    parser = scene_parser(__doc__, out="results/microlens_onset", quick="coarse, H = 0.3 only")
+    parser.add_argument("--H", type=float, nargs="+", default=[0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4],
+                        help="apex heights H / R")
+    parser.add_argument("--maxh", type=float, default=0.01, help="cell length along the section / R")
+    parser.add_argument("--order", type=int, default=3, help="polynomial order of the displacement")
+    parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
+    parser.add_argument("--kmax", type=int, default=8, help="largest angular wave number scanned")
     args = parser.parse_args(argv)
-    quick = args.quick or bool(os.environ.get("CI"))
+    quick = quick_run(args)
     heights = [0.3] if quick else args.H
     maxh, order = (0.04, 2) if quick else (args.maxh, args.order)
     run_dir = RunDirectory(args.out, params=dict(H=heights, maxh=maxh, order=order, apex=args.apex,
                                                  kmax=args.kmax, t_over_r=THICKNESS_RATIO, quick=quick))
-    progress = Progress("microlens_onset")
+    progress = Progress("microlens_onset", quiet=args.quiet)
     rows = []
     with History(run_dir.file("onset.csv")) as history:
         for H in heights:

@@ -17,7 +17,7 @@ import numpy as np
 from ngsolve.meshes import MakeStructured2DMesh
 
 from ngsgel import FloryRehnerGel, PlaneStrain
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 from ngsgel.transient import TransientProblem, march, time_ramp
 
 WIDTH = 0.1  # one element across: the layer is laterally infinite
@@ -122,8 +122,9 @@ def main(argv=None) -> None:
     parser = scene_parser(__doc__, out="results/transient_layer", quick="coarse mesh, fewer outputs",
                           swelling=dict(Nv=1e-3, chi=0.5, mu0=-1.0, mu_ext=0.0, ramp=1e-4))
     args = parser.parse_args(argv)
-    summary = run(args.out, quick=quick_run(args), Nv=args.Nv, chi=args.chi,
-                  mu0=args.mu0, mu_ext=args.mu_ext, ramp=args.ramp)
+    with silence_progress(args.quiet):
+        summary = run(args.out, quick=quick_run(args), Nv=args.Nv, chi=args.chi,
+                      mu0=args.mu0, mu_ext=args.mu_ext, ramp=args.ramp)
     print(f"{summary['steps']} steps, uptake {summary['uptake']:.5e} (equilibrium "
           f"{summary['uptake_equilibrium']:.5e}), final volume ratio {summary['volume_ratio_final']:.2f}; "
           f"results in {args.out}")

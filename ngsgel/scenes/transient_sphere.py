@@ -29,7 +29,7 @@ from ngsolve.meshes import Make1DMesh
 
 from geometries import ball_octant, ball_section
 from ngsgel import Axisymmetric, FloryRehnerGel, Solid3D, SphericalSymmetric
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 from ngsgel.transient import TransientProblem, TransientResult, march, time_ramp
 
 MODELS = ("line", "axisymmetric", "3d")
@@ -166,10 +166,11 @@ def plot(times, histories, rows, reference, finest: float, path) -> None:
 def main(argv=None) -> None:
     parser = scene_parser(__doc__, out="results/transient_sphere", quick="coarse meshes only",
                           swelling=dict(Nv=1e-2, chi=0.5, mu0=-1.0, mu_ext=-0.1, ramp=1e-4))
-    parser.add_argument("--t-end", type=float, default=3.0, help="end of the run")
+    parser.add_argument("--t-end", type=float, default=3.0, help="end of the run (L^2/D, L the ball's radius)")
     args = parser.parse_args(argv)
-    summary = run(args.out, quick=quick_run(args), Nv=args.Nv, chi=args.chi,
-                  mu0=args.mu0, mu_ext=args.mu_ext, ramp=args.ramp, t_end=args.t_end)
+    with silence_progress(args.quiet):
+        summary = run(args.out, quick=quick_run(args), Nv=args.Nv, chi=args.chi,
+                      mu0=args.mu0, mu_ext=args.mu_ext, ramp=args.ramp, t_end=args.t_end)
     print(f"{'model':12s} {'h':>6s} {'unknowns':>8s} {'wall [s]':>9s} {'error':>9s} {'|3d-axi|':>9s}")
     for r in summary["rows"]:
         print(f"{r['model']:12s} {r['h']:6.3f} {r['unknowns']:8d} {r['wall_seconds']:9.2f} {r['error']:9.2e} "
