@@ -8,8 +8,15 @@ concentrated displacement). At every converged state the second variation is sca
 angular wave numbers ``k = 0 .. kmax`` (``ngsgel.harmonic``, exact for the 3D cap); the first
 negative eigenvalue is bisected to the critical depth ``d/H`` and its wave number ``k``, which is
 the number of vertices of the first polygonal state. Fitch's parameter
-``lambda = 2 [3 (1 - nu^2)]^(1/4) sqrt(H/t)`` (nu = 0.5) and his ranges (3 waves for
-lambda > 13.5, 4 for 9.9-13.5, 5 for 9.2-9.9, axisymmetric below 9.2) are tabulated next to ours.
+``lambda = 2 [3 (1 - nu^2)]^(1/4) sqrt(H/t)`` and his ranges (3 waves for lambda > 13.5, 4 for
+9.9-13.5, 5 for 9.2-9.9, axisymmetric below 9.2) are tabulated next to ours twice: with the
+thesis's nu = 0.5 and with the gel's drained Poisson ratio. The drained one is the right one here:
+at fixed ``mu`` the solvent moves freely in and out, so the gel's incremental response about its
+free-swollen state is the drained one (shear modulus ``Nv/lam0``, drained bulk modulus ``K`` of
+``FloryRehnerGel.bulk_modulus``; nu = 0.31 for Nv = 1e-3, chi = 0.5, mu = 0), and that is what a
+linear elastic shell of Fitch's theory must have to share the gel shell's bending and stretching
+stiffnesses. nu = 0.5 is the instantaneous (undrained) response of a transient run, which the
+equilibrium indentation never sees.
 
     ngsgel run microlens-onset --out results/microlens_onset [--H 0.1 0.2 0.3 0.4] [--quick]
 """
@@ -19,13 +26,18 @@ from __future__ import annotations
 import math
 import time
 
-from ngsgel.scenes.microlens import THICKNESS_RATIO, AxisymmetricCap, Indentation, SectionResolution
+from ngsgel.scenes.microlens import GEL, THICKNESS_RATIO, AxisymmetricCap, Indentation, SectionResolution
 from ngsgel.harmonic import first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
 
 
 def fitch_lambda(H: float, t: float, nu: float = 0.5) -> float:
     return 2.0 * (3.0 * (1.0 - nu**2)) ** 0.25 * math.sqrt(H / t)
+
+
+def drained_poisson_ratio(mu: float) -> float:
+    """Poisson ratio of the cap's gel at fixed ``mu`` about its free-swollen state."""
+    return GEL.drained_poisson_ratio(GEL.lam_free(mu))
 
 
 def fitch_waves(lam: float) -> str:
@@ -50,7 +62,10 @@ def onset(H: float, *, maxh: float, layers: int = 2, order: int = 3, apex: float
                                        step=0.02 * H, max_step=0.05 * H, tolerance=1e-4 * H,
                                        stability=cap.harmonic)
     lam = fitch_lambda(H, t)
-    return {"H": H, "t": t, "fitch_lambda": lam, "fitch_waves": fitch_waves(lam), "found": found.found,
+    nu = drained_poisson_ratio(case.mu)
+    lam_drained = fitch_lambda(H, t, nu)
+    return {"H": H, "t": t, "fitch_lambda": lam, "fitch_waves": fitch_waves(lam), "nu_drained": nu,
+            "fitch_lambda_drained": lam_drained, "fitch_waves_drained": fitch_waves(lam_drained), "found": found.found,
             "depth_over_H": found.parameter / H if found.found else None, "k": found.k,
             "ndof_section": cap.problem.space.ndof, "maxh": maxh, "order": order, "apex_radius": apex,
             "wall_s": time.perf_counter() - start}
@@ -77,7 +92,8 @@ def main(argv=None) -> list[dict]:
             row = onset(H, maxh=maxh, order=order, apex=args.apex, kmax=args.kmax)
             history.append(row)
             rows.append(row)
-            progress(f"H/R = {H}: lambda = {row['fitch_lambda']:.2f} (Fitch: {row['fitch_waves']}), "
+            progress(f"H/R = {H}: lambda = {row['fitch_lambda']:.2f} (Fitch: {row['fitch_waves']}), drained "
+                     f"{row['fitch_lambda_drained']:.2f} (Fitch: {row['fitch_waves_drained']}), "
                      + (f"k = {row['k']} at d/H = {row['depth_over_H']:.4f}" if row["found"]
                         else "no instability") + f", {row['wall_s']:.1f} s")
     return rows
