@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import math
 import os
+import pickle
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -33,11 +34,12 @@ import numpy as np
 import ngsolve as ngs
 
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
+from .output import report_progress
 from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
                         spectrum, state_rate)
 from .stepping import RampError, ramp
 
-__all__ = ["StabilityOptions", "Stabilization", "PathPoint", "Event", "Checkpoint", "PathResult",
+__all__ = ["StabilityOptions", "Stabilization", "PathPoint", "Event", "Checkpoint", "Resumption", "PathResult",
            "ContinuationError", "BorderedCorrector", "follow_path"]
 
 Method = Literal["natural", "arclength"]
@@ -126,7 +128,15 @@ class Event:
 
 @dataclass
 class Checkpoint:
-    """What a run needs to go on: the last two states on the path and the step control."""
+    """What a run needs to go on: the last two states on the path and the step control (``step``:
+    the size of the next step, as the run would take it).
+
+    ``follow_path(restart=...)`` starts a new path from it; ``follow_path(resume=...)`` goes on
+    with the same path as if it had not stopped, for which it also holds the path so far
+    (``points``, ``events``; ``steps`` taken), the Newton floor the run used (``atol``) and, once
+    the path has ended, why (``stop_reason``; ``message`` of the ``ContinuationError`` of a path
+    that stalled). ``load`` gives the events' critical modes as dof vectors (a GridFunction
+    needs the problem's space: ``follow_path`` makes them GridFunctions again)."""
 
     method: str
     parameter: float
@@ -135,22 +145,83 @@ class Checkpoint:
     previous_state: np.ndarray | None
     step: float
     scale: float | None
+    steps: int = 0
+    atol: float | None = None
+    points: list[PathPoint] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+    stop_reason: str = ""
+    message: str = ""
 
     def save(self, path: str | Path) -> None:
+        # the path so far as a pickle in a byte array: the file loads without allow_pickle
+        events = [replace(e, mode=None if e.mode is None else e.mode.vec.FV().NumPy().copy()) for e in self.events]
+        path_so_far = pickle.dumps((self.points, events, self.stop_reason, self.message))
         np.savez(path, method=self.method, parameter=self.parameter, state=self.state,
                  previous_parameter=np.nan if self.previous_parameter is None else self.previous_parameter,
                  previous_state=self.state * np.nan if self.previous_state is None else self.previous_state,
-                 step=self.step, scale=np.nan if self.scale is None else self.scale)
+                 step=self.step, scale=np.nan if self.scale is None else self.scale, steps=self.steps,
+                 atol=np.nan if self.atol is None else self.atol,
+                 path=np.frombuffer(path_so_far, dtype=np.uint8))
 
     @classmethod
     def load(cls, path: str | Path) -> Checkpoint:
         data = np.load(path)
         prev = float(data["previous_parameter"])
         scale = float(data["scale"])
-        return cls(method=str(data["method"]), parameter=float(data["parameter"]), state=data["state"],
-                   previous_parameter=None if math.isnan(prev) else prev,
-                   previous_state=None if math.isnan(prev) else data["previous_state"],
-                   step=float(data["step"]), scale=None if math.isnan(scale) else scale)
+        checkpoint = cls(method=str(data["method"]), parameter=float(data["parameter"]), state=data["state"],
+                         previous_parameter=None if math.isnan(prev) else prev,
+                         previous_state=None if math.isnan(prev) else data["previous_state"],
+                         step=float(data["step"]), scale=None if math.isnan(scale) else scale)
+        if "path" in data:  # older checkpoints hold the states only: enough for restart, not for resume
+            atol = float(data["atol"])
+            checkpoint.steps, checkpoint.atol = int(data["steps"]), None if math.isnan(atol) else atol
+            checkpoint.points, checkpoint.events, checkpoint.stop_reason, checkpoint.message = pickle.loads(
+                data["path"].tobytes())
+        return checkpoint
+
+
+class Resumption:
+    """The checkpoint files of a run folder, taken up in the order the run wrote them.
+
+    A path may come in legs (one ``follow_path`` each, e.g. between snaps) that share one
+    checkpoint file ``latest``: when a leg has ended and another follows, ``end_leg`` moves its
+    checkpoint to ``<stem>_leg<n>.npz``, so that ``latest`` always holds the leg that runs, or the
+    stage's end (what ``restart`` takes), and an absent ``latest`` says that the next leg has not
+    begun. ``take(latest, leg)``: the checkpoint of that leg while the run being resumed got that
+    far (``follow_path``'s ``resume``), else None - that leg and every later path run afresh; the
+    first one taken must exist (the run wrote nothing to go on from otherwise).
+    ``reached(latest, leg)``: whether the run got as far as that leg (what comes before it, e.g. a
+    relaxation without checkpoint, need not run again). ``active=False`` (a fresh run): always None."""
+
+    def __init__(self, active: bool):
+        self.active = active
+        self.taken = 0
+
+    @staticmethod
+    def leg_file(latest: str | Path, leg: int) -> Path:
+        latest = Path(latest)
+        return latest.with_name(f"{latest.stem}_leg{leg}{latest.suffix}")
+
+    @classmethod
+    def end_leg(cls, latest: str | Path, leg: int) -> None:
+        """The leg ``leg`` (whose checkpoint ``latest`` holds, unless a resumed run took it from
+        its own file) has ended and another follows."""
+        if not cls.leg_file(latest, leg).exists():
+            os.replace(latest, cls.leg_file(latest, leg))
+
+    def take(self, latest: str | Path, leg: int = 0) -> Checkpoint | None:
+        if not self.reached(latest, leg):
+            if self.active and not self.taken:
+                raise ValueError(f"no checkpoint {latest}: the run stopped before its first path state "
+                                 f"(start it again, without resuming)")
+            self.active = False
+            return None
+        self.taken += 1
+        ended = self.leg_file(latest, leg)
+        return Checkpoint.load(ended if ended.exists() else latest)
+
+    def reached(self, latest: str | Path, leg: int) -> bool:
+        return self.active and (self.leg_file(latest, leg).exists() or Path(latest).exists())
 
 
 @dataclass
@@ -384,8 +455,8 @@ class _Converged:
 class _Driver:
     def __init__(self, problem, parameter, *, stability: StabilityOptions | None,
                  qoi: Mapping[str, Callable[[], float]], history, vtk, vtk_every: int,
-                 progress: Callable[[str], None] | None, keep_states: bool, stop, max_steps: int,
-                 locate: bool, newton_options: dict, checkpoint_file: str | Path | None = None):
+                 progress: Callable[[str], None] | None, target: float | None, keep_states: bool, stop,
+                 max_steps: int, locate: bool, newton_options: dict, checkpoint_file: str | Path | None = None):
         self.problem = problem
         self.checkpoint_file = None if checkpoint_file is None else Path(checkpoint_file)
         self.parameter = parameter
@@ -395,6 +466,9 @@ class _Driver:
         self.vtk = vtk
         self.vtk_every = vtk_every
         self.progress = progress
+        self.target = target
+        self.start = parameter.Get()
+        self._reached = 0.0  # largest share of the way from start to target so far
         self.keep_states = keep_states
         self.stop = stop
         self.max_steps = max_steps
@@ -404,6 +478,7 @@ class _Driver:
         self.events: list[Event] = []
         self.steps = 0
         self.stop_reason = ""
+        self.message = ""  # of the ContinuationError of a path that stalled
         self._pending: tuple[str, ...] = ()  # events of the next recorded point
         self._mass = free_matrix(mass_matrix(problem), problem.free_mask) if stability else None
 
@@ -433,20 +508,46 @@ class _Driver:
                        dissipated_fraction=dissipated, state=point.state if self.keep_states else None)
         self.points.append(pp)
         if self.history is not None:
-            row = {"step": pp.step, "parameter": pp.parameter, **pp.qoi, "energy": pp.energy,
-                   "iterations": pp.iterations, "negative": pp.negative}
-            if self.stability is not None:
-                row.update({f"eig{i}": (pp.eigenvalues[i] if i < len(pp.eigenvalues) else None)
-                            for i in range(self.stability.eigenvalues)})
-            row.update({"events": ";".join(events), "dissipated_fraction": dissipated})
-            self.history.append(row)
+            self.history.append(self.row(pp))
         if self.vtk is not None and (events or pp.step % self.vtk_every == 0):
             self.vtk.write(float(len(self.vtk.times)))
-        if self.progress is not None:
-            self.progress(f"step {pp.step}: parameter {pp.parameter:.6g}, iterations {pp.iterations}"
-                          + (f", negative {pp.negative}" if pp.negative is not None else "")
-                          + (f", events {', '.join(events)}" if events else ""))
+        report_progress(self.progress, f"step {pp.step}: parameter {pp.parameter:.6g}, iterations {pp.iterations}"
+                        + (f", negative {pp.negative}" if pp.negative is not None else "")
+                        + (f", events {', '.join(events)}" if events else ""), fraction=self.fraction(pp.parameter))
         return pp
+
+    def row(self, pp: PathPoint) -> dict:
+        """The history's row of a recorded point (a function of the point: a resumed run writes
+        the rows of the path so far from its checkpoint)."""
+        row = {"step": pp.step, "parameter": pp.parameter, **pp.qoi, "energy": pp.energy,
+               "iterations": pp.iterations, "negative": pp.negative}
+        if self.stability is not None:
+            row.update({f"eig{i}": (pp.eigenvalues[i] if i < len(pp.eigenvalues) else None)
+                        for i in range(self.stability.eigenvalues)})
+        row.update({"events": ";".join(pp.events), "dissipated_fraction": pp.dissipated_fraction})
+        return row
+
+    def fraction(self, value: float) -> float | None:
+        """Share of the way from the start to the target reached so far; the largest share: an
+        arclength path may turn back past a limit point (None without a target)."""
+        if self.target is None or self.target == self.start:
+            return None
+        share = (value - self.start) / (self.target - self.start)
+        self._reached = max(self._reached, min(share, 1.0))
+        return self._reached
+
+    def take_up(self, checkpoint: Checkpoint) -> None:
+        """Go on with the path of ``checkpoint`` (the problem holds its state): its points,
+        events and step count; the rows of its points written to the history."""
+        self.points, self.steps = list(checkpoint.points), checkpoint.steps
+        self.events = _with_modes(self.problem, checkpoint.events)
+        self.start = self.points[0].parameter  # progress: the share of the whole path
+        if self.history is not None:
+            for pp in self.points:
+                self.history.append(self.row(pp))
+        report_progress(self.progress, f"resumed at step {self.steps}: parameter {checkpoint.parameter:.6g}"
+                        + (f" ({checkpoint.stop_reason}: the path had ended)" if checkpoint.stop_reason else ""),
+                        fraction=self.fraction(checkpoint.parameter))
 
     def should_stop(self, pp: PathPoint) -> bool:
         if self.stop is not None and self.stop(pp):
@@ -599,17 +700,38 @@ class _Driver:
                    scale: float | None) -> Checkpoint:
         return Checkpoint(method=method, parameter=current.parameter, state=current.state,
                           previous_parameter=None if previous is None else previous.parameter,
-                          previous_state=None if previous is None else previous.state, step=step, scale=scale)
+                          previous_state=None if previous is None else previous.state, step=step, scale=scale,
+                          steps=self.steps, atol=self.newton_options["atol"], points=list(self.points),
+                          events=list(self.events), stop_reason=self.stop_reason, message=self.message)
 
     def keep(self, method: str, current: _Converged, previous: _Converged | None, step: float,
-             scale: float | None) -> None:
+             scale: float | None) -> Checkpoint:
         """Rewrite ``checkpoint_file`` (if any) for the path so far; the replace is atomic, so a run
         stopped while writing leaves the previous step's checkpoint."""
-        if self.checkpoint_file is None:
-            return
-        partial = self.checkpoint_file.with_name(self.checkpoint_file.stem + ".partial.npz")
-        self.checkpoint(method, current, previous, step, scale).save(partial)
-        os.replace(partial, self.checkpoint_file)
+        checkpoint = self.checkpoint(method, current, previous, step, scale)
+        if self.checkpoint_file is not None:
+            partial = self.checkpoint_file.with_name(self.checkpoint_file.stem + ".partial.npz")
+            checkpoint.save(partial)
+            os.replace(partial, self.checkpoint_file)
+        return checkpoint
+
+    def finish(self, method: str, current: _Converged, previous: _Converged | None, step: float,
+               scale: float | None) -> PathResult:
+        """The ended path (``stop_reason`` set), its checkpoint kept: resuming it returns it."""
+        return PathResult(self.points, self.events, self.stop_reason,
+                          self.keep(method, current, previous, step, scale))
+
+
+def _with_modes(problem, events: list[Event]) -> list[Event]:
+    """The events of a loaded checkpoint with their critical modes as GridFunctions again."""
+    rebuilt = []
+    for index, event in enumerate(events):
+        if isinstance(event.mode, np.ndarray):
+            mode = ngs.GridFunction(problem.space, name=f"critical_mode_{index}")  # the driver's name
+            mode.vec.FV().NumPy()[:] = event.mode
+            event = replace(event, mode=mode)
+        rebuilt.append(event)
+    return rebuilt
 
 
 def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclength", step: float,
@@ -620,9 +742,10 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
                 history=None, vtk=None, vtk_every: int = 1, progress: Callable[[str], None] | None = None,
                 restart: Checkpoint | None = None, keep_states: bool = False, grow: float = 1.5,
                 easy_iterations: int = 4, hard_iterations: int = 8, max_correction: float | None = None,
-                newton_options: dict | None = None, checkpoint_file: str | Path | None = None) -> PathResult:
+                newton_options: dict | None = None, checkpoint_file: str | Path | None = None,
+                resume: Checkpoint | None = None) -> PathResult:
     """Follow the equilibrium path of ``problem`` in ``parameter`` from its current state
-    (equilibrated first) or from ``restart``.
+    (equilibrated first) or from ``restart``, or go on with the path of ``resume``.
 
     ``step`` is the first increment of the load parameter (natural) or of arc length (in the
     same units); ``min_step``/``max_step`` bound it (defaults ``step * 1e-6`` and ``step * 10``).
@@ -631,7 +754,9 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     ``max_steps`` steps. ``direction`` (+-1) is the initial sign of the load increment of an
     arclength run. ``qoi``: named callables evaluated at every point. ``history``: an
     ``ngsgel.output.History`` (or anything with ``append(row)``), ``vtk``: a ``VTKSeries`` written
-    every ``vtk_every`` steps and at events; ``progress``: called with one line per step.
+    every ``vtk_every`` steps and at events; ``progress``: called with one line per step
+    (``progress(message)``; a ``ngsgel.output.Progress`` also gets the fraction of the way from
+    the start to ``target`` reached, for its percent done and time left).
     ``stabilization`` (natural runs only) damps the rate of displacement; events are then recorded
     without location. ``keep_states`` stores every state in its ``PathPoint``.
     ``max_correction`` (natural runs): refuse a step that converged farther from its predictor
@@ -640,8 +765,16 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     ``newton_options`` go to every Newton solve; unless it sets ``atol``, solves get the floor
     ``1e-10 * step * |dR/dlambda|`` (a solve that starts next to its solution cannot reduce a
     residual at round-off level by a relative factor).
-    ``checkpoint_file`` (``.npz``): the ``Checkpoint`` of the path so far, rewritten after every
-    step (replaced atomically), so a long run that is stopped can go on with ``restart``.
+    ``checkpoint_file`` (``.npz``): the ``Checkpoint`` of the path so far, written at its first
+    point and rewritten after every step and at its end (replaced atomically).
+    ``restart`` (a ``Checkpoint``): a new path from its state, with its step control.
+    ``resume`` (a ``Checkpoint`` of this path, same options): the path goes on as if it had not
+    stopped - its points, events and step numbers, its Newton floor; nothing is recorded twice, the
+    rows of its points are written to ``history`` first (a history opened afresh then holds the path
+    so far, and no row of a step past the checkpoint). An arclength path then takes the steps the
+    uninterrupted one took; a natural one takes the same step sizes from a tangent predictor
+    (``ramp`` starts without the secant of the two last states). A path that had ended is returned
+    (or its ``ContinuationError`` raised) with the problem at its end state.
     Raises ``ContinuationError`` (with the path so far) when the step falls below ``min_step``.
     """
     if method not in ("natural", "arclength"):
@@ -657,36 +790,56 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     if max_correction is not None and (method != "natural" or not max_correction > 0):
         raise ValueError(f"max_correction must be a number > 0 and is for natural-parameter runs, got "
                          f"{max_correction!r} with method {method!r}")
-    if restart is not None and restart.method != method:
-        raise ValueError(f"the checkpoint is from a {restart.method!r} run, not {method!r}")
+    if restart is not None and resume is not None:
+        raise ValueError("restart starts a new path from a checkpoint, resume goes on with its path: not both")
+    start = restart if restart is not None else resume
+    if start is not None and start.method != method:
+        raise ValueError(f"the checkpoint is from a {start.method!r} run, not {method!r}")
+    if resume is not None and resume.atol is None:
+        raise ValueError("the checkpoint holds no path (written before runs could be resumed): restart from it")
+    if resume is not None and stabilization is not None:
+        raise ValueError("a stabilised path cannot be resumed: the checkpoint does not hold its damping")
     if checkpoint_file is not None and Path(checkpoint_file).suffix != ".npz":
         raise ValueError(f"checkpoint_file must end in .npz, got {str(checkpoint_file)!r}")
     min_step = step * 1e-6 if min_step is None else min_step
     max_step = step * 10 if max_step is None else max_step
-    if restart is not None:
-        problem.restore_state(restart.state)
-        parameter.Set(restart.parameter)
-        step = restart.step
+    if start is not None:
+        problem.restore_state(start.state)
+        parameter.Set(start.parameter)
+        step = start.step
     newton_options = dict(newton_options or {})
-    # the floor also for the first solve: a start that is already an equilibrium has a residual at
-    # round-off, which no relative tolerance can reduce further
-    newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(load_rate(problem, parameter).residual)))
-    first = problem.solve(**newton_options)
+    if resume is not None:  # the run's own floor: its solves stop where the uninterrupted run's did
+        newton_options.setdefault("atol", resume.atol)
+    else:
+        # the floor also for the first solve: a start that is already an equilibrium has a residual
+        # at round-off, which no relative tolerance can reduce further
+        newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(load_rate(problem, parameter).residual)))
+    first = problem.solve(**newton_options) if resume is None else None
     driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
-                     vtk_every=vtk_every, progress=progress, keep_states=keep_states, stop=stop,
+                     vtk_every=vtk_every, progress=progress, target=target, keep_states=keep_states, stop=stop,
                      max_steps=max_steps, locate=stabilization is None, newton_options=newton_options,
                      checkpoint_file=checkpoint_file)
     previous = None
-    if restart is not None and restart.previous_state is not None:
-        previous = _Converged(restart.previous_parameter, restart.previous_state, None)
-    current = driver.converged(first.iterations)
-    driver.record(current, dissipated=0.0 if stabilization else None)
+    if start is not None and start.previous_state is not None:
+        previous = _Converged(start.previous_parameter, start.previous_state, None)
+    if resume is None:
+        current = driver.converged(first.iterations)
+        driver.record(current, dissipated=0.0 if stabilization else None)
+        driver.keep(method, current, previous, step, restart.scale if restart else None)
+    else:
+        driver.take_up(resume)
+        if resume.stop_reason:
+            result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events))
+            if resume.stop_reason == "min_step":
+                raise ContinuationError(resume.message, result)
+            return result
+        current = driver.converged(resume.points[-1].iterations)  # its spectrum again: the next step's check
     if method == "natural":
         return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
                         stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
                         newton_options=newton_options)
     return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
-                      direction=direction, scale=restart.scale if restart else None, grow=grow,
+                      direction=direction, scale=start.scale if start else None, grow=grow,
                       easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
 
 
@@ -732,8 +885,13 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
         driver._goto(b)
         pp = driver.record(b, dissipated=system.fraction if stabilization is not None else None)
         state["current"] = b
-        driver.keep("natural", b, None, abs(b.parameter - a.parameter), None)
-        return driver.should_stop(pp)
+        if driver.should_stop(pp):  # the ended path's checkpoint is kept at the end
+            return True
+        # the step ramp takes next (it grows after an easy step): a resumed run steps alike
+        taken = abs(b.parameter - a.parameter)
+        driver.keep("natural", b, None, min(taken * grow, max_step) if newton_result.iterations <= easy else taken,
+                    None)
+        return False
 
     h = step
     while True:
@@ -743,17 +901,15 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
                           tangent_start=stabilization is None,  # damping's tangent needs a step
                           max_correction=max_correction)
         except RampError as err:
-            path = PathResult(driver.points, driver.events, "min_step",
-                              driver.checkpoint("natural", state["current"], None, h, None))
-            raise ContinuationError(str(err), path) from err
+            driver.stop_reason, driver.message = "min_step", str(err)
+            raise ContinuationError(str(err), driver.finish("natural", state["current"], None, h, None)) from err
         if len(result.values) >= 2:
             h = abs(result.values[-1] - result.values[-2])
         if not result.stopped:
             driver.stop_reason = "target"
         if driver.stop_reason:
             break
-    return PathResult(driver.points, driver.events, driver.stop_reason,
-                      driver.checkpoint("natural", state["current"], None, h, None))
+    return driver.finish("natural", state["current"], None, h, None)
 
 
 def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None, *, step, target, min_step,
@@ -795,10 +951,11 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
         except NewtonError as err:
             ds /= 2
             if ds < min_step:
-                path = PathResult(driver.points, driver.events, "min_step",
-                                  driver.checkpoint("arclength", current, previous, ds, scale))
-                raise ContinuationError(f"arc length step fell below min_step={min_step:g} at parameter "
-                                        f"{current.parameter:g}: {err}", path) from err
+                driver.stop_reason = "min_step"
+                driver.message = (f"arc length step fell below min_step={min_step:g} at parameter "
+                                  f"{current.parameter:g}: {err}")
+                raise ContinuationError(driver.message, driver.finish("arclength", current, previous, ds, scale)) \
+                    from err
             continue
         driver.steps += 1
         landed = target is not None and (parameter.Get() - target) * (current.parameter - target) <= 0 \
@@ -827,7 +984,6 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
         driver._goto(b)
         pp = driver.record(b)
         previous, current = current, b
-        driver.keep("arclength", current, previous, ds, scale)
         if landed:
             driver.stop_reason = "target"
             break
@@ -837,5 +993,5 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
             ds = min(ds * grow, max_step)
         elif newton_result.iterations > hard:
             ds = max(ds / 2, min_step)
-    return PathResult(driver.points, driver.events, driver.stop_reason,
-                      driver.checkpoint("arclength", current, previous, ds, scale))
+        driver.keep("arclength", current, previous, ds, scale)  # with the next step: a resumed run steps alike
+    return driver.finish("arclength", current, previous, ds, scale)

@@ -11,12 +11,13 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from numbers import Real
 from typing import Protocol
 
 import numpy as np
 import ngsolve as ngs
 
-__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver"]
+__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver", "Work", "total_work"]
 
 
 class NonlinearSystem(Protocol):
@@ -34,6 +35,47 @@ class NonlinearSystem(Protocol):
 
 
 @dataclass
+class Work:
+    """What one Newton iteration, chord step or predictor cost: wall time (s) per part and the
+    number of each operation.
+
+    ``kind``: "start" (admissibility and residual of the starting state), "newton" (assembly,
+    factorisation, solve, line search), "chord" (a kept step with an earlier factorisation),
+    "rejected chord" (a chord step tried and dropped), "predictor" (``ramp``'s tangent
+    predictor), "total" (a sum, ``total_work``). The times are disjoint: ``residual`` and
+    ``admissibility`` are those of the point kept, ``line_search`` everything spent on trial
+    points the line search rejected; ``total`` is the record's wall time (the parts plus
+    bookkeeping). ``solve`` includes the product with the tangent that carries prescribed motion.
+    ``residual_norm``: the free residual at the point kept (NaN for a rejected chord step)."""
+
+    kind: str
+    total: float = 0.0
+    assembly: float = 0.0
+    factorisation: float = 0.0
+    solve: float = 0.0
+    residual: float = 0.0
+    admissibility: float = 0.0
+    line_search: float = 0.0
+    assemblies: int = 0
+    factorisations: int = 0
+    solves: int = 0
+    residual_evaluations: int = 0
+    residual_norm: float = math.nan
+
+    TIMES = ("total", "assembly", "factorisation", "solve", "residual", "admissibility", "line_search")
+    COUNTS = ("assemblies", "factorisations", "solves", "residual_evaluations")
+
+
+def total_work(records) -> Work:
+    """The sum of ``records`` (``Work``), as one record of kind "total"."""
+    out = Work("total")
+    for record in records:
+        for name in Work.TIMES + Work.COUNTS:
+            setattr(out, name, getattr(out, name) + getattr(record, name))
+    return out
+
+
+@dataclass
 class NewtonResult:
     converged: bool
     iterations: int
@@ -41,8 +83,22 @@ class NewtonResult:
     line_search_cuts: int = 0
     message: str = ""
     chord_steps: int = 0  # steps with a reused factorisation (not counted in ``iterations``)
-    iteration_times: list[float] = field(default_factory=list)  # wall time of each full iteration, s
-    chord_times: list[float] = field(default_factory=list)  # wall time of each kept chord step, s
+    records: list[Work] = field(default_factory=list)  # the start, then one per iteration or chord step
+    criterion: str = ""  # what ended a converged solve: "residual", "floor" or "increment"
+    tolerance: float = math.nan  # the residual target at the end, max(atol, rtol * reference)
+
+    @property
+    def work(self) -> Work:
+        """Times and counts of the whole solve (``total_work`` of ``records``)."""
+        return total_work(self.records)
+
+    @property
+    def factorisations(self) -> int:
+        return self.work.factorisations
+
+    @property
+    def solves(self) -> int:
+        return self.work.solves
 
 
 class NewtonError(RuntimeError):
@@ -77,18 +133,37 @@ class LinearSolver:
         return self._inv
 
 
+REFERENCES = ("max", "start")
+
+
 def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
-           xtol: float = 1e-13, maxit: int = 30, min_step: float = 2.0**-12,
+           xtol: float = 1e-13, reference: str | float = "max", maxit: int = 30, min_step: float = 2.0**-12,
            raise_on_failure: bool = True, reuse_factorisation: bool = False,
            chord_rate: float = 0.25, stall_window: int | None = None) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
 
-    Converged when the free residual's norm falls below ``max(atol, rtol * r_max)`` (``r_max``
-    the largest residual seen in this solve) and the prescribed values are met, or when a full
-    step changes no entry by more than ``xtol`` (its scale is the problem's length unit).
-    Every trial point must be admissible with a finite residual; while the prescribed values are
-    met the step is also cut until the residual norm decreases (Armijo). On failure the state is
-    restored and ``NewtonError`` raised (or the result returned with ``converged=False``).
+    Converged, once the prescribed values are met, when one of these holds (``criterion`` of the
+    result names it; norms are Euclidean norms of the free residual):
+
+    - ``residual``: the residual is at most ``rtol`` times the ``reference`` residual:
+      ``"max"`` (default) the largest residual seen in this solve (the start's, unless the line
+      search let it grow first), ``"start"`` the residual of the starting state, or a number the
+      caller measured (``ramp``'s ``reference="step"`` passes the residual of the previous
+      equilibrium under the new load, before the predictor: the textbook
+      ``|r| <= rtol |r0|`` of a load step);
+    - ``floor``: the residual is at most ``atol``, an absolute floor (the problems' ``solve``
+      put their round-off level here unless given, see ``EquilibriumProblem.residual_floor``):
+      a solve that starts next to its solution cannot reduce a residual at round-off by a
+      relative factor;
+    - ``increment``: a full step changes no entry by more than ``xtol`` (the problem's length
+      unit).
+
+    So the defaults (``rtol=1e-11``, ``reference="max"``, ``xtol=1e-13``) ask for eleven digits
+    of the residual the solve started with, wherever the caller started it (``ramp``: at its
+    predicted state). Every trial point must be admissible with a finite residual; while the
+    prescribed values are met the step is also cut until the residual norm decreases (Armijo). On
+    failure the state is restored and ``NewtonError`` raised (or the result returned with
+    ``converged=False``); its message gives the residual, the target and both of its parts.
 
     With ``reuse_factorisation`` an iteration first tries a chord step with the solver's last
     factorisation (of an earlier tangent, possibly from an earlier solve), which costs a solve and
@@ -104,9 +179,18 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     free residual (Newton wandering where there is no solution nearby, e.g. a load step past a
     limit point): a caller that cuts its step on failure then does so after that many
     iterations instead of ``maxit``. ``None``: only ``maxit`` ends a solve.
+
+    ``records`` of the result hold the time and operation counts of the start and of every
+    iteration and chord step (``Work``); ``work``, ``factorisations`` and ``solves`` sum them.
     """
     if stall_window is not None and not (isinstance(stall_window, int) and stall_window >= 1):
         raise ValueError(f"stall_window must be an integer >= 1 or None, got {stall_window!r}")
+    for name, value in (("rtol", rtol), ("atol", atol), ("xtol", xtol)):
+        if not (isinstance(value, Real) and 0 <= value < math.inf):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    if not (reference in REFERENCES or (isinstance(reference, Real) and not isinstance(reference, bool)
+                                        and 0 <= reference < math.inf)):
+        raise ValueError(f"reference must be 'max', 'start' or a finite number >= 0, got {reference!r}")
     x = system.state
     free = system.free_mask
     x0 = x.CreateVector()
@@ -117,6 +201,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     target = x.CreateVector()
     r_trial = x.CreateVector()
     result = NewtonResult(converged=False, iterations=0)
+    clock = time.perf_counter
 
     def free_norm(v: ngs.BaseVector) -> float:
         return float(np.linalg.norm(v.FV().NumPy()[free]))
@@ -128,36 +213,70 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
             raise NewtonError(message, result)
         return result
 
+    def evaluate(point: ngs.BaseVector, out: ngs.BaseVector, work: Work) -> float:
+        """Admissibility, then (if admissible) residual and its free norm (NaN if inadmissible)."""
+        start = clock()
+        ok = system.admissible(point)
+        work.admissibility += clock() - start
+        if not ok:
+            return math.nan
+        start = clock()
+        system.residual(point, out)
+        work.residual += clock() - start
+        work.residual_evaluations += 1
+        return free_norm(out)
+
+    def apply_inverse(inv, rhs: ngs.BaseVector, out: ngs.BaseVector, work: Work) -> None:
+        start = clock()
+        out.data = inv * rhs
+        work.solve += clock() - start
+        work.solves += 1
+
+    def close(work: Work, started: float, rnorm: float) -> None:
+        work.total = clock() - started
+        work.residual_norm = rnorm
+        result.records.append(work)
+
+    def relative() -> float:
+        return rtol * (r_max if reference == "max" else r_start if reference == "start" else reference)
+
+    def tolerance() -> float:
+        return max(atol, relative())
+
+    def converge(criterion: str) -> NewtonResult:
+        result.converged, result.criterion, result.tolerance = True, criterion, tolerance()
+        return result
+
+    started = clock()
     system.prescribed(target)
     mismatch = target.FV().NumPy() - x.FV().NumPy()
     mismatch[free] = 0.0
-    if not system.admissible(x):
+    work = Work("start")
+    rnorm = evaluate(x, r, work)
+    if math.isnan(rnorm) and work.residual_evaluations == 0:
         return fail("the starting state is not admissible")
-    system.residual(x, r)
-    rnorm = free_norm(r)
-    r_max = rnorm
+    close(work, started, rnorm)
+    r_max = r_start = rnorm
     result.residuals.append(rnorm)
     chord_ok = reuse_factorisation and solver.current is not None
     # free residual norm after every full iteration since the prescribed values are met
     after_iteration = [] if mismatch.any() else [rnorm]
-    clock = time.perf_counter()  # a rejected chord step is charged to the full iteration after it
     for it in range(maxit + 1):
         while True:  # convergence test, then chord steps while they pay
             if not math.isfinite(rnorm):
                 return fail(f"residual is not finite at iteration {it}")
             met = not mismatch.any()
-            if met and rnorm <= max(atol, rtol * r_max):
-                result.converged = True
-                return result
+            if met and rnorm <= tolerance():
+                return converge("residual" if rnorm <= relative() else "floor")
             if not (chord_ok and met):
                 break
-            dx.data = solver.current * r
+            started, work = clock(), Work("chord")
+            apply_inverse(solver.current, r, dx, work)
             trial.data = x - dx
-            rn_trial = math.nan
-            if system.admissible(trial):
-                system.residual(trial, r_trial)
-                rn_trial = free_norm(r_trial)
+            rn_trial = evaluate(trial, r_trial, work)
             if not (math.isfinite(rn_trial) and rn_trial <= chord_rate * rnorm):
+                work.kind = "rejected chord"
+                close(work, started, math.nan)
                 chord_ok = False  # until the next factorisation
                 break
             x.data = trial
@@ -165,37 +284,47 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
             rnorm = rn_trial
             result.residuals.append(rnorm)
             result.chord_steps += 1
-            now = time.perf_counter()
-            result.chord_times.append(now - clock)
-            clock = now
+            close(work, started, rnorm)
         if it == maxit:
             break
+        started, work = clock(), Work("newton")
+        t = clock()
         K = system.tangent(x)
+        work.assembly, work.assemblies = clock() - t, 1
+        t = clock()
         inv = solver.factor(K)
+        work.factorisation, work.factorisations = clock() - t, 1
         chord_ok = reuse_factorisation
         # Constrained part of the step: reach the prescribed values; free part: linearised
         # equilibrium including the coupling to that constrained motion.
         dx.FV().NumPy()[:] = mismatch
+        t = clock()
         if met:  # no constrained motion: skip the product with K
             trial.data = r
         else:
             trial.data = K * dx
             trial.data += r
-        dx.data -= inv * trial
+        work.solve += clock() - t
+        apply_inverse(inv, trial, r_trial, work)
+        dx.data -= r_trial
         step_max = float(np.max(np.abs(dx.FV().NumPy()), initial=0.0))
         alpha = 1.0
         while True:
             trial.data = x + alpha * dx
-            if system.admissible(trial):
-                system.residual(trial, r_trial)
-                rn_trial = free_norm(r_trial)
-                if math.isfinite(rn_trial) and (not met or alpha * step_max <= xtol
-                                                or rn_trial <= (1 - 1e-4 * alpha) * rnorm
-                                                or rn_trial <= max(atol, rtol * r_max)):
-                    break
+            attempt = Work("trial")
+            rn_trial = evaluate(trial, r_trial, attempt)
+            if math.isfinite(rn_trial) and (not met or alpha * step_max <= xtol
+                                            or rn_trial <= (1 - 1e-4 * alpha) * rnorm
+                                            or rn_trial <= tolerance()):
+                work.residual, work.admissibility = attempt.residual, attempt.admissibility
+                work.residual_evaluations += attempt.residual_evaluations
+                break
+            work.line_search += attempt.residual + attempt.admissibility
+            work.residual_evaluations += attempt.residual_evaluations
             alpha *= 0.5
             result.line_search_cuts += 1
             if alpha < min_step:
+                close(work, started, rnorm)
                 return fail(f"line search failed at iteration {it + 1} (residual {rnorm:.3e}): "
                             "no admissible step decreases the residual")
         x.data = trial
@@ -205,18 +334,16 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         r_max = max(r_max, rnorm)
         result.residuals.append(rnorm)
         result.iterations = it + 1
-        now = time.perf_counter()
-        result.iteration_times.append(now - clock)
-        clock = now
+        close(work, started, rnorm)
         if alpha == 1.0 and step_max <= xtol and not mismatch.any():
-            result.converged = True
-            return result
+            return converge("increment")
         if not mismatch.any():
             after_iteration.append(rnorm)
         if (stall_window is not None and len(after_iteration) > stall_window
                 and rnorm > 0.5 * after_iteration[-1 - stall_window]):
             return fail(f"stalled: {stall_window} iterations did not halve the residual (now {rnorm:.3e}, "
                         f"iteration {it + 1})")
-    return fail(f"no convergence in {maxit} iterations (residual {rnorm:.3e}, target "
-                f"{max(atol, rtol * r_max):.3e})")
-
+    described = {"max": "the largest residual", "start": "the start residual"}.get(reference, "the reference")
+    return fail(f"no convergence in {maxit} iterations (residual {rnorm:.3e}, target {tolerance():.3e}: "
+                f"the larger of the floor atol = {atol:.3e} and rtol = {rtol:.3g} x {described} "
+                f"{relative() / rtol if rtol else math.nan:.3e})")

@@ -381,9 +381,43 @@ class EquilibriumProblem(GelBody):
         bad = ngs.Integrate(self._indicator, self.mesh, order=self._indicator_order)
         return bool(bad == 0.0)
 
-    def solve(self, **newton_options) -> NewtonResult:
-        """Newton at the current parameter values; raises ``NewtonError`` on failure."""
+    # Round-off of the residual: each entry sums stress terms times shape-function gradients,
+    # and the terms are of the size of the energy density at strains of order one (a gel's
+    # mu J and mixing terms cancel in its net stress but not in their rounding). Measured
+    # round-off plateaus of the free residual, over eps E_s N^(1/d - 1/2) / V^(1/d): 0.18-0.22
+    # (film columns, arches), 0.25-0.83 (plane-strain gels), 1.9-2.2 (3D gel blocks, a film on a
+    # gel), 12 (1D spherical gel, order 6); 100 keeps the floor above all of them. For gels it
+    # lies below rtol times an ordinary load step's starting residual; for slender film
+    # structures it can bind (a column: 2e-13, 4e-10 of its axial force, where rtol asked for
+    # 1e-18 and Newton crawled at 3e-16 until the increment test stopped it).
+    ROUND_OFF_FACTOR = 100.0
+
+    @property
+    def residual_floor(self) -> float:
+        """Newton's default absolute floor ``atol``: the round-off level of the free residual at
+        the current loads, ``100 eps E_s N^(1/d - 1/2) / V^(1/d)``. ``E_s``: the energy scale, the
+        integral over the body of ``|W'(I)| + |W'(2I)|`` (each region's energy density at the
+        reference and at twice its size, at the current ``mu``); ``N`` the free dofs, ``V`` the
+        body's measure, ``d`` the mesh dimension, so ``E_s / (N h)`` with ``h = (V/N)^(1/d)`` is a
+        dof's force scale and ``sqrt(N)`` sums the rounding of ``N`` of them. Below it a relative
+        criterion asks for digits the residual does not have (a tiny load step next to a critical
+        state crawled for 30 iterations at 3e-16 towards 1e-27); its cost is one integral over
+        the mesh per solve."""
         self.form
+        sizes = {name: ngs.Norm(mat.reference_energy(ngs.Id(3), self.mu, self.lam0))
+                 + ngs.Norm(mat.reference_energy(2 * ngs.Id(3), self.mu, self.lam0))
+                 for name, mat in self.materials.items()}
+        energy = self.integrate(self.mesh.MaterialCF(sizes))
+        free, d = int(self.free_mask.sum()), self.mesh.dim
+        measure = self.integrate(ngs.CF(1.0))
+        return self.ROUND_OFF_FACTOR * np.finfo(float).eps * energy * free ** (1 / d - 0.5) / measure ** (1 / d)
+
+    def solve(self, **newton_options) -> NewtonResult:
+        """Newton at the current parameter values (``ngsgel.newton.newton``'s options; ``atol``
+        defaults to ``residual_floor``); raises ``NewtonError`` on failure."""
+        self.form
+        if "atol" not in newton_options:
+            newton_options["atol"] = self.residual_floor
         with ngs.TaskManager():  # threads assembly and factorisation; a no-op when already active
             return newton(self, self._solver, **newton_options)
 

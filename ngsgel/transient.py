@@ -1,13 +1,16 @@
 """Transient swelling: coupled displacement and chemical potential with Suo's kinetics.
 
-Unknowns ``(u, mu)`` on the swollen reference (MODEL.md section 3), backward Euler in time. Per
-step the problem is a ``NonlinearSystem`` for ``ngsgel.newton``:
+Unknowns ``(u, mu)`` on the swollen reference (MODEL.md section 3), backward Euler or the
+variable-step BDF2 in time. Per step the problem is a ``NonlinearSystem`` for ``ngsgel.newton``:
 
     u-equation:   d/du  sum_regions int W'(F', mu) dV'                       = 0
-    mu-equation:  -int (J' - J'_n) q + dt (J' - lam0^-3) C'^-1 Grad mu . Grad q dV'
-                  + dt int j_in q dA'                                         = 0
+    mu-equation:  -int (J' - a1 J'_n + a2 J'_{n-1}) q
+                  + b dt (J' - lam0^-3) C'^-1 Grad mu . Grad q dV' + b dt int j_in q dA' = 0
 
-The mu-equation is multiplied by ``-dt``: then the coupling blocks are transposes of each other
+Backward Euler: ``a1 = 1, a2 = 0, b = 1``. BDF2 with the step ratio ``w = dt / dt_{n-1}``:
+``a2 = w^2 / (1 + 2w)``, ``a1 = 1 + a2``, ``b = (1 + w) / (1 + 2w)`` (the BDF2 derivative
+``((1+2w)/(1+w) J'_{n+1} - (1+w) J'_n + w^2/(1+w) J'_{n-1}) / dt`` times ``b dt``).
+The mu-equation is multiplied by ``-b dt``: then the coupling blocks are transposes of each other
 (``d2W'/dF' dmu = -dJ'/dF'``) and the system is well scaled for any ``dt``. The derivative of
 the mobility (and the lumped mass below) make the tangent unsymmetric, hence umfpack.
 
@@ -18,9 +21,9 @@ wetted boundary (Vermeer & Verruijt 1981; Rodrigo et al. 2016); lumped, it stays
 The u-equation keeps the energy's quadrature, so steady states are exactly the equilibrium
 problem's (same ``quadrature_order``).
 
-``march`` steps a problem in time with adaptive ``dt`` (geometric start-up, growth on easy
-steps, cut-back on failure) and lands on requested output times; every step yields a
-``StepRecord`` with the solvent balance.
+``march`` steps a problem in time (BDF2 by default) with the step chosen by an estimate of the
+local time error (``rtol``), cut back where Newton fails, and lands on requested output times;
+every step yields a ``StepRecord`` with the solvent balance.
 """
 
 from __future__ import annotations
@@ -39,7 +42,8 @@ from .newton import LinearSolver, NewtonError, NewtonResult, newton
 from .output import report_progress
 from .problem import EquilibriumProblem, GelBody, quadrature_rules
 
-__all__ = ["TransientProblem", "StepRecord", "TransientResult", "TransientError", "march", "time_ramp"]
+__all__ = ["TransientProblem", "StepRecord", "TransientResult", "TransientError", "march", "time_ramp",
+           "SCHEMES", "MAX_RATIO"]
 
 
 def _as_cf(value) -> ngs.CoefficientFunction:
@@ -75,7 +79,15 @@ class StepRecord:
     ``step_uptake`` is ``int (J'_{n+1} - J'_n) dV'``; ``wetted_inflow`` the solvent that entered
     through the immersed boundaries during the step (from the mu-equation's residual on their
     dofs), ``prescribed_inflow`` through prescribed-flux boundaries; ``balance_error`` is
-    ``step_uptake - wetted_inflow - prescribed_inflow``.
+    ``step_uptake - wetted_inflow - prescribed_inflow``. With BDF2 (``order`` 2) the inflows are
+    the flux integrated with the scheme's own weights: the mu-equation summed over all dofs says
+    ``dC_{n+1} - a2 dC_n = b dt Q_{n+1}`` (``dC`` a step's uptake, ``Q`` the inflow rate), so the
+    inflow of the step is ``I_{n+1} = b dt Q_{n+1} + a2 I_n`` (``I_n = dt Q_n`` for a backward
+    Euler step); its balance error is this step's round-off plus ``a2 < 1`` times the last one's.
+
+    ``error``: the estimated local time error over its tolerance (``march`` with ``rtol``; NaN
+    where not estimated), ``rejected``: attempts of this step refused by that estimate,
+    ``cutbacks``: attempts on which Newton failed.
     """
 
     time: float
@@ -89,6 +101,9 @@ class StepRecord:
     prescribed_inflow: float
     exchanged: float
     balance_error: float
+    order: int = 1
+    error: float = math.nan
+    rejected: int = 0
     cutbacks: int = 0
     output: bool = False
 
@@ -122,6 +137,10 @@ class TransientResult:
         return sum(r.cutbacks for r in self.records)
 
     @property
+    def rejected(self) -> int:
+        return sum(r.rejected for r in self.records)
+
+    @property
     def outputs(self) -> list[StepRecord]:
         return [r for r in self.records if r.output]
 
@@ -130,11 +149,27 @@ class TransientResult:
 
 
 class TransientError(RuntimeError):
-    """``dt`` fell below ``dt_min``; the problem holds the last converged step."""
+    """``dt`` fell below ``dt_min``; the problem holds the last accepted step."""
 
     def __init__(self, message: str, result: TransientResult):
         super().__init__(message)
         self.result = result
+
+
+SCHEMES = ("bdf2", "backward_euler")
+
+
+@dataclass
+class _Step:
+    """The last converged step, what BDF2 needs to take the next: its start state and length,
+    its end (to tell whether the state was changed since) and its inflows (the balance)."""
+
+    time: float
+    dt: float
+    start: np.ndarray
+    end: np.ndarray
+    wetted: float
+    prescribed: float
 
 
 class TransientProblem(GelBody):
@@ -158,7 +193,7 @@ class TransientProblem(GelBody):
                                 lam0=gel.lam_free(-1.0), mu0=-1.0)
         prob.fix("bottom"); prob.fix("left|right", "x")
         prob.immerse("top", 0.0)
-        result = march(prob, 10.0, dt_start=1e-6)
+        result = march(prob, 10.0, output_times=[0.1, 1.0])
     """
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
@@ -194,7 +229,9 @@ class TransientProblem(GelBody):
         self.viscosity = float(viscosity)
         self.t = ngs.Parameter(0.0)
         self.dt = ngs.Parameter(1.0)
+        self._flux_weight = ngs.Parameter(1.0)  # b dt of the module notes
         self.time = 0.0
+        self._previous: _Step | None = None
         # exact for the polynomial part of the mass term in every kinematics (3D: det is of
         # degree 3 (order - 1), times q; axisymmetric: r J' of degree 3 order - 2, times q)
         self._wetted: list[tuple[str, ngs.CoefficientFunction]] = []
@@ -242,6 +279,7 @@ class TransientProblem(GelBody):
         (u, mu), (du, q) = X.TnT()
         self.gf = ngs.GridFunction(X, name="state")
         self._old = ngs.GridFunction(X)
+        self._older = ngs.GridFunction(X)  # the state before the last step, for BDF2
         self._scratch = ngs.GridFunction(X)
         self._target = ngs.GridFunction(X)
 
@@ -268,7 +306,7 @@ class TransientProblem(GelBody):
         if self.lumped:  # replace the energy's consistent mass by the lumped one
             form += (self._content_density(Fp) * q).Compile() * ngs.dx(intrules=rules)
             form += (-self._content_density(Fp) * q).Compile() * ngs.dx(intrules=mass_rules)
-        form += (-self.dt * w * ngs.InnerProduct(mobility * self._grad3(mu), self._grad3(q))).Compile() * ngs.dx
+        form += (-self._flux_weight * w * ngs.InnerProduct(mobility * self._grad3(mu), self._grad3(q))).Compile() * ngs.dx
         self._form = form
 
         def functional(density, dx=ngs.dx(intrules=mass_rules)) -> ngs.LinearForm:
@@ -281,11 +319,14 @@ class TransientProblem(GelBody):
         F_old = self.deformation_gradient(self._old.components[0])
         F_now = self.deformation_gradient(self.gf.components[0])
         self._old_content = functional(self._content_density(F_old))
+        self._older_content = functional(self._content_density(self.deformation_gradient(self._older.components[0])))
+        self._history_content = self._old_content.vec.CreateVector()  # a1 C_n - a2 C_{n-1}, per dof
         self._content = functional(self._content_density(F_now))
         self._step_uptake = functional(self._content_density(F_now) - self._content_density(F_old))
         self._inflow = ngs.LinearForm(X)  # prescribed solvent inflow during the step
         for boundary, inflow in self._fluxes:
-            self._inflow += (self.dt * w * inflow * q) * ngs.ds(definedon=mesh.Boundaries(boundary), intrules=rules)
+            self._inflow += (self._flux_weight * w * inflow * q) * ngs.ds(definedon=mesh.Boundaries(boundary),
+                                                                           intrules=rules)
 
         self.free_mask = np.array(list(X.FreeDofs()), dtype=bool)
         self._solver = LinearSolver(X.FreeDofs(), inverse=self.inverse)
@@ -315,7 +356,7 @@ class TransientProblem(GelBody):
     def residual(self, x, out) -> None:
         self._update_self_contacts(x)
         self.form.Apply(x, out)
-        out.data += self._old_content.vec
+        out.data += self._history_content
         out.data += self._inflow.vec
 
     def tangent(self, x):
@@ -364,39 +405,88 @@ class TransientProblem(GelBody):
             gmu.Set(equilibrium.mu)
         self.time = 0.0
         self.t.Set(0.0)
+        self._previous = None
         self.initial_content = self._apply(self._content)
         self.uptake = 0.0
         self.exchanged = 0.0
 
-    def step_to(self, t_new: float, **newton_options) -> StepRecord:
-        """One backward Euler step from ``self.time`` to ``t_new``. Raises ``NewtonError`` with
-        time and state unchanged when Newton fails (including steps that would dry the gel)."""
+    def step_to(self, t_new: float, *, scheme: str = "backward_euler", guess: np.ndarray | None = None,
+                **newton_options) -> StepRecord:
+        """One step from ``self.time`` to ``t_new``: backward Euler, or with ``scheme="bdf2"`` the
+        variable-step BDF2 through this step and the last one (backward Euler where there is no
+        last step to go on from: after ``reset``, or when the state was changed since). Newton
+        starts from ``guess`` (a state vector, e.g. an extrapolation of the last states) if it is
+        admissible, else from the current state. Raises ``NewtonError`` with time and state
+        unchanged when Newton fails (including steps that would dry the gel). The pseudo-viscous
+        force stays a backward difference in either scheme: it is a stabiliser, not physics."""
+        if scheme not in SCHEMES:
+            raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         dt = t_new - self.time
         if not dt > 0:
             raise ValueError(f"t_new must be after the current time {self.time}, got {t_new!r}")
         x = self.state
+        previous = self._previous if scheme == "bdf2" and self._continues() else None
+        if previous is None:
+            a1, a2, b = 1.0, 0.0, 1.0
+        else:
+            ratio = dt / previous.dt
+            a2 = ratio**2 / (1 + 2 * ratio)
+            a1, b = 1 + a2, (1 + ratio) / (1 + 2 * ratio)
+        start = self.save_state()
         self._old.vec.data = x
         self.t.Set(t_new)
         self.dt.Set(dt)
+        self._flux_weight.Set(b * dt)
         self._old_content.Assemble()
+        if previous is None:
+            self._history_content.data = self._old_content.vec
+        else:
+            self._older.vec.FV().NumPy()[:] = previous.start
+            self._older_content.Assemble()
+            self._history_content.data = a1 * self._old_content.vec - a2 * self._older_content.vec
         self._inflow.Assemble()
+        if guess is not None:
+            self.restore_state(guess)
+            if not self.admissible(x):
+                self.restore_state(start)
         try:
             result: NewtonResult = newton(self, self._solver, **{"atol": self.residual_floor, **newton_options})
         except NewtonError:
+            self.restore_state(start)
             self.t.Set(self.time)
             raise
         self.time = t_new
         r = x.CreateVector()
         self.residual(x, r)
+        # this step's inflows with the scheme's weights (see StepRecord)
         wetted = -ngs.InnerProduct(r, self._one_wetted)
         prescribed = ngs.InnerProduct(self._inflow.vec, self._one)
+        if previous is not None:
+            wetted += a2 * previous.wetted
+            prescribed += a2 * previous.prescribed
         step_uptake = self._apply(self._step_uptake)
         self.uptake += step_uptake
         self.exchanged += wetted + prescribed
+        self._previous = _Step(time=t_new, dt=dt, start=start, end=self.save_state(), wetted=wetted,
+                               prescribed=prescribed)
         return StepRecord(time=t_new, dt=dt, iterations=result.iterations, line_search_cuts=result.line_search_cuts,
                           content=self._apply(self._content), uptake=self.uptake, step_uptake=step_uptake,
                           wetted_inflow=wetted, prescribed_inflow=prescribed, exchanged=self.exchanged,
-                          balance_error=step_uptake - wetted - prescribed)
+                          balance_error=step_uptake - wetted - prescribed, order=1 if previous is None else 2)
+
+    def _continues(self) -> bool:
+        """Whether the state is still the end of the last step, so that BDF2 may go on from it."""
+        last = self._previous
+        return last is not None and last.time == self.time and np.array_equal(last.end, self.state.FV().NumPy())
+
+    def _checkpoint(self) -> tuple:
+        return self.save_state(), self.time, self.uptake, self.exchanged, self._previous
+
+    def _rewind(self, checkpoint: tuple) -> None:
+        """Back to a ``_checkpoint``: undoes the steps since (``march`` refusing a step)."""
+        state, self.time, self.uptake, self.exchanged, self._previous = checkpoint
+        self.restore_state(state)
+        self.t.Set(self.time)
 
     # --------------------------------------------------------------------- outputs
     def viscous_dissipation(self) -> float:
@@ -426,49 +516,153 @@ class TransientProblem(GelBody):
                 "sigma_xy": sigma[0, 1]}
 
 
-def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: float | None = None,
-          dt_min: float | None = None, dt_over_t: float | None = 0.5, grow: float = 1.5, cut: float = 0.25,
-          easy_iterations: int = 4, output_times: Iterable[float] = (),
-          on_step: Callable[[TransientProblem, StepRecord], None] | None = None,
-          newton_options: dict | None = None, progress: Callable[[str], None] | None = None) -> TransientResult:
-    """Advance ``problem`` from its current time to ``t_end``.
+# Variable-step BDF2 is zero-stable for step ratios below 1 + sqrt(2) (Grigorieff 1983); 2 keeps a
+# margin, and with it the weight a2 <= 0.8 with which a step's balance round-off enters the next.
+MAX_RATIO = 2.0
+# the elementary error controller: safety factor, largest cut after a refused step
+_SAFETY = 0.9
+_MIN_RATIO = 0.2
+# Newton leaves every entry of a state uncertain to about its xtol (1e-13 in the problem's units):
+# differences of the error estimate below 1000 times that are noise, not time error
+_NOISE = 1e-10
 
-    The first step is ``dt_start``; later steps grow by ``grow`` after a step that took at
-    most ``easy_iterations`` Newton iterations, stay below ``dt_max`` and below ``dt_over_t``
-    times the time elapsed in this march (geometric start-up: uniform accuracy in the
-    ``sqrt(t)`` regime after a boundary step; ``None`` disables it). A failed step is retried
-    with ``dt * cut``; below ``dt_min`` a ``TransientError`` is raised. Steps end exactly on
-    ``output_times`` and ``t_end`` (records marked ``output``). ``on_step(problem, record)``
-    runs after every converged step. ``progress``: called with one line at the start and one per
-    converged step (``progress(message)``; a ``ngsgel.output.Progress`` also gets the fraction of
-    the march's time span done, for its percent done and time left).
+
+def _extrapolate(history: list[tuple[float, np.ndarray]], t_new: float, order: int) -> np.ndarray:
+    """The polynomial through the last ``order + 1`` states, at ``t_new``: the explicit predictor
+    of that order."""
+    last = history[-(order + 1):]
+    return sum(math.prod((t_new - tk) / (tj - tk) for k, (tk, _) in enumerate(last) if k != j) * yj
+               for j, (tj, yj) in enumerate(last))
+
+
+def _time_error(history: list[tuple[float, np.ndarray]], t_new: float, y_new: np.ndarray, predicted: np.ndarray,
+                order: int, fields: list[tuple[slice, np.ndarray]], tolerance: np.ndarray) -> float:
+    """Milne's device: the local error of the step to ``t_new`` (order 1: backward Euler, 2:
+    BDF2, both from exact past values) is a fixed multiple of the difference between its solution
+    and ``predicted``, the extrapolation of the last ``order + 1`` states (the predictor of the same
+    order): both errors are proportional to the same derivative of the solution, with constants
+    from the step lengths. Returns the largest error of a free dof of each field (``fields``:
+    the field's slice of the state and its free dofs) over that field's ``tolerance``."""
+    times = [t for t, _ in history[-(order + 1):]]
+    h, hp = t_new - times[-1], times[-1] - times[-2]
+    if order == 1:
+        # backward Euler's error h^2/2 y'', the linear predictor's -h (h + hp)/2 y''
+        factor = h / (2 * h + hp)
+    else:
+        # BDF2's error -c3 y''' (c3 the y''' coefficient of its truncation error, a1 and a2 as
+        # in the module notes), the quadratic predictor's -h (h + hp) (h + hp + hpp)/6 y'''
+        hpp = times[-2] - times[-3]
+        ratio = h / hp
+        a2 = ratio**2 / (1 + 2 * ratio)
+        c3 = ((1 + a2) * h**3 - a2 * (h + hp) ** 3) / 6
+        factor = -c3 / (h * (h + hp) * (h + hp + hpp) / 6 - c3)
+    difference = y_new - predicted
+    return max(abs(factor) * float(np.max(np.abs(difference[part][free]), initial=0.0)) / tol
+               for (part, free), tol in zip(fields, tolerance))
+
+
+def march(problem: TransientProblem, t_end: float, *, output_times: Iterable[float] = (), scheme: str = "bdf2",
+          rtol: float | None = 1e-3, dt_start: float | None = None, dt_max: float | None = None,
+          dt_min: float | None = None, dt_over_t: float | None = 0.5, grow: float = 1.5, cut: float = 0.25,
+          easy_iterations: int = 4, on_step: Callable[[TransientProblem, StepRecord], None] | None = None,
+          newton_options: dict | None = None, progress: Callable[[str], None] | None = None) -> TransientResult:
+    """Advance ``problem`` from its current time to ``t_end``; steps end exactly on
+    ``output_times`` and ``t_end`` (records marked ``output``).
+
+    ``scheme``: ``"bdf2"`` (second order; the first steps of a march are backward Euler, which
+    needs no earlier step) or ``"backward_euler"`` (first order).
+
+    ``rtol`` (a number in (0, 1), default 1e-3): error control. The local time error of a step,
+    estimated from the difference between its solution and the explicit extrapolation of the
+    last states of the same order (``_time_error``), must stay below ``rtol`` times the largest
+    change of the field since the march began (largest entry over the free dofs; displacement and
+    chemical potential each against its own change). A step above that is refused and retried
+    shorter; the next step is ``dt * 0.9 (1 / error)^(1/(p+1))`` (p the order) within [0.2, 2]
+    times ``dt``. With the default a swelling sphere's radius history is within 0.1 %
+    (docs/transient.md). The first two steps have no estimate (the start state may not fit the
+    boundary values just after it: an immersion step), and a BDF2 estimate takes three states,
+    so under error control BDF2 begins at the fourth step. ``dt_start`` defaults to ``rtol^2``
+    times the time to the first output: after a jump of the boundary value (uptake ~ sqrt(t))
+    the error of the first steps is then of order ``rtol`` of the uptake at that output.
+    ``rtol=None``: no error control; the first step is ``dt_start`` (then required), later steps
+    grow by ``grow`` after a step that took at most ``easy_iterations`` Newton iterations (the
+    control of earlier versions, which used ``scheme="backward_euler"``).
+
+    Either way steps stay below ``dt_max`` and below ``dt_over_t`` times the time elapsed in this
+    march (``None``: no such bound), and a step more than ``MAX_RATIO`` times the last is
+    backward Euler (BDF2 is stable up to that ratio; error control never proposes more). A step
+    on which Newton fails (including one that would dry the gel) is retried with ``dt * cut``;
+    below ``dt_min`` (default: 1e-14 of the span, or 1e-6 of ``dt_start`` if smaller) a
+    ``TransientError`` is raised. ``on_step(problem, record)`` runs after every accepted step.
+    ``progress``: called with one line at the start and one per accepted step
+    (``progress(message)``; a ``ngsgel.output.Progress`` also gets the fraction of the march's
+    time span done, for its percent done and time left).
     """
     t0 = problem.time
     span = t_end - t0
     if not span > 0:
         raise ValueError(f"t_end must be after the current time {t0}, got {t_end!r}")
+    if scheme not in SCHEMES:
+        raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
+    if rtol is not None and not (isinstance(rtol, Real) and 0 < rtol < 1):
+        raise ValueError(f"rtol must be a number in (0, 1) or None (no error control), got {rtol!r}")
+    if dt_over_t is not None and not (isinstance(dt_over_t, Real) and dt_over_t > 0):
+        raise ValueError(f"dt_over_t must be a number > 0 or None, got {dt_over_t!r}")
+    stops = sorted({float(s) for s in output_times if t0 < s < t_end} | {float(t_end)})
     dt_max = span if dt_max is None else dt_max
-    dt_min = span * 1e-14 if dt_min is None else dt_min
+    if dt_start is None:
+        if rtol is None:
+            raise ValueError("dt_start is required without error control (rtol=None)")
+        dt_start = min(rtol**2 * (stops[0] - t0), dt_max)
+        if dt_min is not None:  # the caller's floor bounds the default first step too
+            dt_start = max(dt_start, dt_min)
+    # a tight rtol starts with steps far below the span's round-off bound, and needs room below them
+    dt_min = min(span * 1e-14, dt_start * 1e-6) if dt_min is None else dt_min
     if not 0 < dt_min <= dt_start <= dt_max:
         raise ValueError(f"need 0 < dt_min <= dt_start <= dt_max, got {dt_min}, {dt_start}, {dt_max}")
     if not (grow >= 1 and 0 < cut < 1):
         raise ValueError(f"need grow >= 1 and 0 < cut < 1, got grow={grow}, cut={cut}")
-    stops = sorted({float(s) for s in output_times if t0 < s < t_end} | {float(t_end)})
     report_progress(progress, f"start: t = {t0:.6g}, end {t_end:.6g}", fraction=0.0)
+    problem.form
+    fields = [(slice(r.start, r.stop), problem.free_mask[r.start:r.stop])
+              for r in (problem.mixed_space.Range(i) for i in range(2))]
+    start = problem.save_state()
+    # the last three accepted states of this march, from its first step on: the start state may be
+    # inconsistent with the boundary values just after it (an immersion step), and an extrapolation
+    # through it would see a jump as a rate
+    history: list[tuple[float, np.ndarray]] = []
+    change = np.zeros(len(fields))  # the largest change of each field since t0
     result = TransientResult(completed=False)
     dt = dt_start
-    cutbacks = 0
+    cutbacks = rejected = 0
     while stops:
         stop = stops[0]
         h = min(dt, dt_max)
         if dt_over_t is not None and problem.time > t0:
             h = min(h, dt_over_t * (problem.time - t0))
         h = max(h, dt_min)
-        landing = stop - problem.time <= h * (1 + 1e-9)
+        remaining = stop - problem.time
+        landing = remaining <= h * (1 + 1e-9)
         if landing:
-            h = stop - problem.time
+            h = remaining
+        elif rtol is not None and remaining < 2 * h:
+            # two equal steps rather than a sliver before the output time, which would hold the
+            # next steps to MAX_RATIO times itself
+            h = remaining / 2
+        # BDF2 goes on from the last step of this march (under error control from the fourth step:
+        # its estimate takes three states after the start) if this one is at most MAX_RATIO times
+        # as long; otherwise (the start; without error control, a step after one shortened to
+        # land) backward Euler. The controller never proposes more than MAX_RATIO times the last.
+        order = 2 if (scheme == "bdf2" and len(history) >= (1 if rtol is None else 3)
+                      and h <= MAX_RATIO * problem._previous.dt * (1 + 1e-9)) else 1
+        t_new = stop if landing else problem.time + h
+        # Under error control Newton starts from the predictor (about 40 % fewer iterations on a
+        # swelling sphere); without it from the last state, as the step growth there counts them.
+        predicted = _extrapolate(history, t_new, order) if rtol is not None and len(history) > order else None
+        checkpoint = problem._checkpoint() if rtol is not None else None
         try:
-            record = problem.step_to(stop if landing else problem.time + h, **(newton_options or {}))
+            record = problem.step_to(t_new, scheme="bdf2" if order == 2 else "backward_euler", guess=predicted,
+                                     **(newton_options or {}))
         except NewtonError as err:
             cutbacks += 1
             dt = h * cut
@@ -476,18 +670,41 @@ def march(problem: TransientProblem, t_end: float, *, dt_start: float, dt_max: f
                 result.message = f"dt fell below dt_min={dt_min:g} at t={problem.time:g}: {err}"
                 raise TransientError(result.message, result) from err
             continue
+        state = problem.save_state()
+        if rtol is not None:
+            moved = np.maximum(change, [np.max(np.abs(state[part] - start[part]), initial=0.0)
+                                        for part, _ in fields])
+            if predicted is not None:
+                record.error = _time_error(history, record.time, state, predicted, order, fields,
+                                           np.maximum(rtol * moved, _NOISE))
+            if record.error > 1:  # False for NaN: the first two steps have no estimate
+                problem._rewind(checkpoint)
+                rejected += 1
+                dt = h * max(_MIN_RATIO, _SAFETY * record.error ** (-1 / (order + 1)))
+                if dt < dt_min:
+                    result.message = (f"dt fell below dt_min={dt_min:g} at t={problem.time:g}: the time error "
+                                      f"estimate is {record.error:.3g} times its tolerance")
+                    raise TransientError(result.message, result)
+                continue
+            change = moved
         if landing:
             stops.pop(0)
-        record.cutbacks, record.output = cutbacks, landing
-        cutbacks = 0
+        record.cutbacks, record.rejected, record.output = cutbacks, rejected, landing
+        cutbacks = rejected = 0
         result.records.append(record)
+        history = [*history[-2:], (record.time, state)]
         report_progress(progress, f"t = {record.time:.6g}, dt = {record.dt:.3g}, iterations {record.iterations}"
-                        + (f", cut-backs {record.cutbacks}" if record.cutbacks else ""),
+                        + (f", cut-backs {record.cutbacks}" if record.cutbacks else "")
+                        + (f", refused {record.rejected}" if record.rejected else ""),
                         fraction=(record.time - t0) / span)
         if on_step is not None:
             on_step(problem, record)
-        # a step shortened to land on an output time does not shrink the next one
-        base = max(h, dt) if landing else h
-        dt = base * grow if record.iterations <= easy_iterations else base
+        if rtol is not None:
+            factor = MAX_RATIO if not record.error > 0 else _SAFETY * record.error ** (-1 / (order + 1))
+            dt = h * min(MAX_RATIO, max(_MIN_RATIO, factor))
+        else:
+            # a step shortened to land on an output time does not shrink the next one
+            base = max(h, dt) if landing else h
+            dt = base * grow if record.iterations <= easy_iterations else base
     result.completed = True
     return result

@@ -12,6 +12,12 @@ most expensive ngsgel Newton iteration over the median baseline iteration. docs/
 has the numbers.
 
     python scripts/bench_newton.py --out results/bench_newton [--quick] [--repeat 3] [--cases block-30k]
+
+``--threads-study``: the default and the chord-reuse ramp of the chosen cases on 1 and 2 NGSolve
+threads, with the BLAS/LAPACK pools at their defaults and limited to one thread
+(``ngsgel.using_threads``), interleaved; ratios to 1 thread and to the default BLAS pools.
+``--before DIR``: the default ramp with the ngsgel package in DIR (e.g. ``git archive`` of an
+older commit, unpacked) against this checkout's, in alternating fresh processes.
 """
 
 from __future__ import annotations
@@ -133,7 +139,13 @@ def run_ngsgel(case: dict, **newton_options) -> Run:
 
     def on_step(value, result):
         run.step_ends.append(time.perf_counter() - start)
-        run.iteration_times += result.iteration_times
+        rejected = 0.0  # a rejected chord attempt is charged to the full iteration after it
+        for record in result.records:
+            if record.kind == "rejected chord":
+                rejected += record.total
+            elif record.kind == "newton":
+                run.iteration_times.append(record.total + rejected)
+                rejected = 0.0
         run.iterations_per_step.append(result.iterations)
         run.chord_steps += result.chord_steps
 
@@ -166,6 +178,90 @@ def compare(base: Run, ours: Run) -> dict[str, float]:
 VARIANTS = {"ngsgel": {}, "ngsgel-reuse": {"reuse_factorisation": True}}
 
 
+def timed_ramp(case: dict, options: dict) -> tuple[float, int, int]:
+    """Wall time, full iterations and factorisations (predictor's included) of ngsgel's ramp
+    (10 equal steps as ``ramp(..., step=h, max_step=h, grow=1)``, the call an older ngsgel has too)."""
+    prob = make_problem(case)
+    prob.form
+    step = (MU1 - MU0) / STEPS
+    start = time.perf_counter()
+    result = ramp(prob, prob.mu, MU1, step=step, max_step=step, grow=1.0, newton_options=options)
+    wall = time.perf_counter() - start
+    return wall, sum(n.iterations for n in result.newton), getattr(result, "factorisations", -1)
+
+
+def threads_study(case: dict, repeat: int, variants: list[str]) -> list[dict]:
+    """The default and the chord-reuse ramp on 1 and 2 NGSolve threads, each with the BLAS pools at
+    their defaults and limited to one thread (``ngsgel.using_threads``), interleaved."""
+    import threadpoolctl
+    from ngsgel import using_threads
+
+    default_blas = max(i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas")
+    configs = [(n, limited) for limited in (False, True) for n in (1, 2)]
+    times: dict[tuple, list[float]] = {}
+    counts: dict[tuple, tuple[int, int]] = {}
+    for _ in range(repeat):
+        for variant in variants:
+            options = VARIANTS[variant]
+            for n, limited in configs:
+                if limited:
+                    with using_threads(n):
+                        wall, its, facs = timed_ramp(case, options)
+                else:
+                    ngs.SetNumThreads(n)
+                    with threadpoolctl.threadpool_limits(default_blas, user_api="blas"):
+                        wall, its, facs = timed_ramp(case, options)
+                times.setdefault((variant, n, limited), []).append(wall)
+                counts[(variant, n, limited)] = (its, facs)
+                print(f"    {variant}, {n} thread(s), BLAS {'1 thread' if limited else f'{default_blas} threads'}: "
+                      f"{wall:.2f}s", flush=True)
+    rows = []
+    for variant in variants:
+        for n, limited in configs:
+            wall = statistics.median(times[(variant, n, limited)])
+            key_one = (variant, 1, limited)
+            key_default = (variant, n, False)
+            rows.append({"variant": variant, "threads": n, "blas_threads": 1 if limited else default_blas,
+                         "ramp_s": wall, "runs": ", ".join(f"{t:.1f}" for t in times[(variant, n, limited)]),
+                         "iterations": counts[(variant, n, limited)][0],
+                         "factorisations": counts[(variant, n, limited)][1],
+                         "over_1_thread": wall / statistics.median(times[key_one]),
+                         "over_blas_default": wall / statistics.median(times[key_default])})
+            print(f"  {variant}, {n} thread(s), BLAS {rows[-1]['blas_threads']}: {wall:.2f}s "
+                  f"(runs {rows[-1]['runs']}; {rows[-1]['iterations']} iterations, "
+                  f"{rows[-1]['factorisations']} factorisations); / 1 thread {rows[-1]['over_1_thread']:.2f}, "
+                  f"/ default BLAS {rows[-1]['over_blas_default']:.2f}", flush=True)
+    return rows
+
+
+def before_after(case_name: str, before: str, repeat: int) -> list[dict]:
+    """ngsgel's ramp (default options) with the ngsgel package in ``before`` against this one,
+    each run in a fresh process with the process defaults for threads, interleaved."""
+    import json
+    import subprocess
+    import sys
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    trees = {"before": before, "after": os.path.dirname(here)}
+    times: dict[str, list[float]] = {k: [] for k in trees}
+    iterations = {}
+    for _ in range(repeat):
+        for label, tree in trees.items():
+            env = dict(os.environ, PYTHONPATH=os.pathsep.join([tree, here]))
+            out = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", case_name], env=env,
+                                 check=True, capture_output=True, text=True).stdout
+            child = json.loads(out.strip().splitlines()[-1])
+            times[label].append(child["wall"])
+            iterations[label] = child["iterations"]
+            print(f"    {label}: {child['wall']:.2f}s ({child['iterations']} iterations, ngsgel from "
+                  f"{child['package']})", flush=True)
+    ratio = statistics.median(times["after"]) / statistics.median(times["before"])
+    print(f"  default ramp: before {statistics.median(times['before']):.2f}s, after "
+          f"{statistics.median(times['after']):.2f}s, after / before {ratio:.2f}", flush=True)
+    return [{"label": k, "ramp_s": statistics.median(v), "runs": ", ".join(f"{t:.1f}" for t in v),
+             "iterations": iterations[k], "after_over_before": ratio} for k, v in times.items()]
+
+
 def main(argv=None) -> None:
     global STEPS
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -174,12 +270,37 @@ def main(argv=None) -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--cases", default=None, help="comma-separated subset of the cases")
     parser.add_argument("--steps", type=int, default=None, help=f"load steps of the ramp (default {STEPS})")
+    parser.add_argument("--threads-study", action="store_true",
+                        help="instead: default and chord-reuse ramps on 1 and 2 threads, BLAS limited or not")
+    parser.add_argument("--before", default=None, metavar="DIR",
+                        help="instead: the default ramp with the ngsgel package in DIR (e.g. an older commit's) "
+                             "against this one, in fresh processes")
+    parser.add_argument("--variants", default=None, help=f"--threads-study: a subset of {','.join(VARIANTS)}")
+    parser.add_argument("--child", default=None, help=argparse.SUPPRESS)  # one --before run: prints its time
     args = parser.parse_args(argv)
     STEPS = args.steps or STEPS
     quick = args.quick or bool(os.environ.get("CI"))
-    chosen = cases(quick)
-    if args.cases:
-        chosen = {k: chosen[k] for k in args.cases.split(",")}
+    chosen = cases(quick) | cases(not quick)
+    if args.child:
+        import json
+        import ngsgel
+        wall, its, _ = timed_ramp(chosen[args.child], {})
+        print(json.dumps({"wall": wall, "iterations": its, "package": os.path.dirname(ngsgel.__file__)}))
+        return
+    chosen = {k: chosen[k] for k in args.cases.split(",")} if args.cases else cases(quick)
+    if args.threads_study or args.before:
+        run_dir = RunDirectory(args.out, params={"mu0": MU0, "mu1": MU1, "steps": STEPS, "repeat": args.repeat,
+                                                 "cases": list(chosen), "before": args.before,
+                                                 "cores": os.cpu_count()})
+        with History(run_dir.file("threads.csv" if args.threads_study else "before_after.csv")) as history:
+            for name, case in chosen.items():
+                print(f"{name}: {make_problem(case).space.ndof} unknowns", flush=True)
+                variants = args.variants.split(",") if args.variants else list(VARIANTS)
+                rows = (threads_study(case, args.repeat, variants) if args.threads_study
+                        else before_after(name, args.before, args.repeat))
+                for row in rows:
+                    history.append({"case": name, **row})
+        return
     run_dir = RunDirectory(args.out, params={"mu0": MU0, "mu1": MU1, "steps": STEPS, "repeat": args.repeat,
                                              "quick": quick, "threads": os.cpu_count()})
     med = statistics.median

@@ -27,10 +27,11 @@ Writes ``path.csv`` (driver history + rim wave content), ``events.json``, ``summ
 (with the penetration depth of the final dominant wave, ``pattern_depth``, and - half disk - the
 end state's stability against the modes odd in y that the half disk excludes, ``odd_modes``), ``snaps.json``,
 ``state_end.npz``, ``shell.pvd`` (VTK of every state), ``shape_end.png`` (deflection map and rim profile at the
-end).
+end), ``checkpoint.npz`` (the path so far, for ``--resume``; an ended leg moves to ``checkpoint_leg<n>.npz``).
 
     ngsgel run graded-plate-shell --out results/graded_plate_shell [--p 10 --maxh 0.2] [--quick]
     ngsgel run graded-plate-shell --out results/full_disk --full-disk --switch-all --mu-start -1
+    ngsgel run graded-plate-shell --resume results/graded_plate_shell   # a stopped run, on from its last checkpoint
 """
 
 from __future__ import annotations
@@ -44,11 +45,12 @@ import ngsolve as ngs
 
 from ngsgel.scenes.shell_cases import GRADED_N0, GRADED_NR, disk_circle_values, graded_plate_shell, odd_free_mask, plate_mode_wave
 from ngsgel import FloryRehnerGel, NewtonError, follow_path, ramp
-from ngsgel.continuation import ContinuationError, StabilityOptions
+from ngsgel.continuation import ContinuationError, Resumption, StabilityOptions
 from ngsgel.relaxation import settle, settle_after
 from ngsgel.stepping import RampError
 from ngsgel.stability import free_matrix, negative_count, spectrum
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import (History, Progress, RunDirectory, VTKSeries, command_options, quick_run, resume_arguments,
+                           scene_parser, silence_progress)
 from ngsgel.patterns import penetration_depth, periodic_peaks, wave_number
 
 RIM_RADIUS = 0.97  # sampling circle just inside the curved rim
@@ -154,7 +156,8 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
         maxh: float = 0.2, order: int = 3, step: float = 0.05,
         max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = MU_START,
         maxit: int | None = None, half: bool = True, switch_all: bool = False, through_snaps: bool = True,
-        snap_overshoot: float = 1e-3, jump_ratio: float | None = None, quick: bool = False) -> dict:
+        snap_overshoot: float = 1e-3, jump_ratio: float | None = None, quick: bool = False,
+        options: dict | None = None, resume: bool = False) -> dict:
     """The defaults are the protocol that reaches ``mu = 0`` (docs/graded.md): the half disk, one
     switch onto the saddle, then its branch and the ones it snaps to.
     ``mu_start``: ramp the flat disk there first (natural steps, no stability check: it must lie
@@ -177,7 +180,11 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
     those natural legs also refuse a step that converged farther from its predictor than this
     many predicted increments (``follow_path``'s ``max_correction``: a jump onto another branch).
     ``n0``, ``nR``: ``Nv`` at the centre and the rim (MODEL.md 5 C; the thesis's text gives both
-    divided by 3, its ch. 5.2)."""
+    divided by 3, its ch. 5.2).
+    Every step rewrites ``checkpoint.npz`` (an ended leg moves to ``checkpoint_leg<n>.npz``:
+    ``ngsgel.continuation.Resumption``); ``resume``: the run in ``out`` goes on from the last one
+    (a snap whose next leg has not begun relaxes again, from the end of its leg). ``options``:
+    the command line, kept in ``params.json`` (``ngsgel.output.resume_arguments``)."""
     check_grading(n0, nR)
     if through_snaps and switch_all:
         raise ValueError("through_snaps needs switch_all=False (legs that locate, not switch)")
@@ -196,14 +203,20 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
                   realcompile=realcompile, mu_start=mu_start, maxit=maxit, half=half,
                   switch_all=switch_all, through_snaps=through_snaps, snap_overshoot=snap_overshoot,
                   jump_ratio=jump_ratio, quick=quick,
-                  rim_radius=RIM_RADIUS)
-    run_dir = RunDirectory(out, params=params)
+                  rim_radius=RIM_RADIUS, options=options)
+    run_dir = RunDirectory(out, params=params, resume=resume)
+    if not resume:  # an earlier run's checkpoints here would be taken for this run's by a resume
+        for stale in run_dir.path.glob("checkpoint*.npz"):
+            stale.unlink()
+    resumption = Resumption(resume)
+    latest = run_dir.file("checkpoint.npz")
+    first = resumption.take(latest)
     progress = Progress("graded_plate_shell")
     start = time.perf_counter()
     shell, mesh, pins = graded_plate_shell(p, maxh=maxh, order=order, t=t, realcompile=realcompile, half=half,
                                            n0=n0, nR=nR)
     rim = RimWaves(shell, mesh, half=half)
-    if mu_start is not None:
+    if mu_start is not None and first is None:  # (a resumed run starts from its checkpoint)
         ramp(shell, shell.mu, mu_start, step=0.25)
         with ngs.TaskManager():
             unstable = negative_count(free_matrix(shell.tangent(shell.state), shell.free_mask))
@@ -213,7 +226,7 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
     error, points, all_events, snaps = None, [], [], []
     leg = 0
     qoi = {"leg": lambda: leg, **rim.qoi()}
-    vtk = VTKSeries(mesh, shell.fields(), run_dir.file("shell"))
+    vtk = VTKSeries(mesh, shell.fields(), run_dir.series("shell"))
     with History(run_dir.file("path.csv")) as history:
         while True:
             switch = switch_all or leg == 0
@@ -237,7 +250,8 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
                                    step=step / 5 if natural else step, max_step=step,
                                    min_step=step / MIN_STEP_DIVISOR if natural else None, target=0.0, stability=stability,
                                    qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
-                                   vtk=vtk, progress=progress, **leg_options)
+                                   vtk=vtk, progress=progress, checkpoint_file=latest,
+                                   resume=resumption.take(latest, leg) if leg else first, **leg_options)
             except ContinuationError as exc:  # the path so far is kept: reported, or (snapping) a stall
                 path = exc.result
                 if not natural:
@@ -253,7 +267,10 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
             if (error is not None or path.stop_reason not in ("criterion", "min_step") or switch_all
                     or len(points) >= max_steps):
                 break
-            if natural:  # the branch lost stability (located event) or the steps stalled (a fold)
+            Resumption.end_leg(latest, leg)
+            if natural and resumption.reached(latest, leg + 1):  # the stopped run had snapped: its record
+                snaps.append(json.loads(run_dir.file("snaps.json").read_text())[len(snaps)])
+            elif natural:  # the branch lost stability (located event) or the steps stalled (a fold)
                 clock = time.perf_counter()
                 settled = settle_after(shell, shell.mu, path, overshoot=snap_overshoot, amplitude=0.1 * t,
                                        target=0.0, progress=progress)
@@ -289,9 +306,9 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
                # the half disk's end state on the full disk: the modes odd in y
                "odd_modes_end": odd_modes(shell, mesh) if half else None,
                "wall_s": time.perf_counter() - start}
-    run_dir.write_json("summary.json", summary)
     plot_shape(shell, mesh, run_dir.file("shape_end.png"),
                title=f"p = {p:g}, t/R = {t:g}, mu = {summary['mu_end']:.4g}", half=half)
+    run_dir.write_json("summary.json", summary)  # last: a folder with it holds a finished run
     return summary
 
 
@@ -397,19 +414,21 @@ def plot_shape(shell, mesh: ngs.Mesh, path, *, title: str, half: bool = False) -
 
 def main(argv=None) -> dict:
     parser = scene_parser(__doc__, out="results/graded_plate_shell",
-                          quick=f"half disk, h = 0.2, from mu = {MU_START} through the first switch onto the "
+                          quick=f"half disk, h = 0.2 R, from mu = {MU_START} through the first switch onto the "
                                 "saddle, 8 steps, no C++ compile (about 2 min)")
-    parser.add_argument("--p", type=float, default=10.0, help="grading exponent")
-    parser.add_argument("--n0", type=float, default=GRADED_N0, help="Nv at the centre")
-    parser.add_argument("--nR", type=float, default=GRADED_NR, help="Nv at the rim")
-    parser.add_argument("--t", type=float, default=0.01, help="thickness / radius")
-    parser.add_argument("--maxh", type=float, default=0.2, help="shell mesh size")
-    parser.add_argument("--order", type=int, default=3)
-    parser.add_argument("--step", type=float, default=0.05, help="arclength step (and its maximum)")
-    parser.add_argument("--max-steps", type=int, default=200)
+    parser.add_argument("--p", type=float, default=10.0, help="grading exponent p of Nv(r) = n0 + (nR - n0) (r/R)^p")
+    parser.add_argument("--n0", type=float, default=GRADED_N0, help="Nv at the centre (dimensionless)")
+    parser.add_argument("--nR", type=float, default=GRADED_NR, help="Nv at the rim (dimensionless)")
+    parser.add_argument("--t", type=float, default=0.01, help="thickness t / disk radius R")
+    parser.add_argument("--maxh", type=float, default=0.2, help="element size of the shell mesh / R")
+    parser.add_argument("--order", type=int, default=3, help="polynomial order of the shell's displacement")
+    parser.add_argument("--step", type=float, default=0.05,
+                        help="step in mu (kT): arc length (in mu) of the first leg and of arclength legs, their "
+                             "maximum; snapping legs step mu from step / 5 up to step")
+    parser.add_argument("--max-steps", type=int, default=200, help="path points of all legs together, at most")
     parser.add_argument("--no-realcompile", action="store_true", help="do not compile the forms to C++")
     parser.add_argument("--mu-start", type=float, default=MU_START,
-                        help=f"ramp the flat disk to this mu first, below the onset (default {MU_START})")
+                        help="ramp the flat disk to this mu (kT) first, below the onset")
     parser.add_argument("--maxit", type=int, help="Newton iterations per solve (default: the driver's)")
     parser.add_argument("--full-disk", dest="half", action="store_false",
                         help="the full disk instead of the half with mirror symmetry about y = 0 (the one-mode switch "
@@ -419,28 +438,35 @@ def main(argv=None) -> dict:
     parser.add_argument("--no-snaps", action="store_true",
                         help="after the first switch follow the branch by arclength, locating (not snapping at) later "
                              "bifurcations")
-    parser.add_argument("--snap-overshoot", type=float, default=1e-3, help="mu beyond the critical value to snap at")
+    parser.add_argument("--snap-overshoot", type=float, default=1e-3,
+                        help="mu (kT) beyond the critical value to snap at")
     parser.add_argument("--seed-wave", type=int, help="instead: seed this wave number (half disk, transverse "
-                        "dead load), swell to mu = 0, remove the seed and relax (seeded_pattern)")
-    parser.add_argument("--seed-load", type=float, default=1e-3, help="seed load in units of D / R^4")
+                        "dead load), swell to mu = 0, remove the seed and relax (seeded_pattern; default: none, "
+                        "the path)")
+    parser.add_argument("--seed-load", type=float, default=1e-3,
+                        help="seed load in units of D / R^4 (D = G t^3 / 6 of the stiffer gel)")
     parser.add_argument("--jump-ratio", type=float, default=None,
                         help="snapping legs: refuse steps that converge this many predicted increments from "
                              "their predictor (a jump onto another branch); default: no such check")
-    args = parser.parse_args(argv)
-    if args.seed_wave is not None:
-        summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, n0=args.n0, nR=args.nR,
-                                 t=args.t,
-                                 maxh=args.maxh, order=args.order, realcompile=not args.no_realcompile,
-                                 mu_start=args.mu_start)
-        print(json.dumps({k: v for k, v in summary.items() if k not in ("rim_with_seed", "penetration_depth")},
-                         default=str, indent=1))
-        return summary
-    summary = run(args.out, p=args.p, n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, order=args.order, step=args.step,
-                  max_steps=args.max_steps, realcompile=not args.no_realcompile, mu_start=args.mu_start,
-                  maxit=args.maxit, half=args.half,
-                  switch_all=args.switch_all, through_snaps=not (args.switch_all or args.no_snaps),
-                  snap_overshoot=args.snap_overshoot, jump_ratio=args.jump_ratio,
-                  quick=quick_run(args))
+    parser.add_argument("--resume", default=None, metavar="DIR",
+                        help="go on with the stopped path run in DIR from its last checkpoint to the end it would "
+                             "have reached, with its own options (its params.json; an option given as well must "
+                             "agree); summary.json's wall_s is then the resumed part's (default: none, a new run)")
+    args = resume_arguments(parser, argv)
+    with silence_progress(args.quiet):
+        if args.seed_wave is not None:
+            summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, n0=args.n0,
+                                     nR=args.nR, t=args.t, maxh=args.maxh, order=args.order,
+                                     realcompile=not args.no_realcompile, mu_start=args.mu_start)
+            print(json.dumps({k: v for k, v in summary.items() if k not in ("rim_with_seed", "penetration_depth")},
+                             default=str, indent=1))
+            return summary
+        summary = run(args.out, p=args.p, n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, order=args.order,
+                      step=args.step, max_steps=args.max_steps, realcompile=not args.no_realcompile,
+                      mu_start=args.mu_start, maxit=args.maxit, half=args.half, switch_all=args.switch_all,
+                      through_snaps=not (args.switch_all or args.no_snaps), snap_overshoot=args.snap_overshoot,
+                      jump_ratio=args.jump_ratio, quick=quick_run(args), options=command_options(args),
+                      resume=args.resume is not None)
     print(json.dumps({k: v for k, v in summary.items() if k != "events"}, default=str, indent=1))
     for e in summary["events"]:
         print(e)

@@ -48,13 +48,16 @@ Fits (the symbols of the thesis's formulas are garbled in the seed; reconstructe
     ngsgel run microlens --out results/microlens_shell --model shell --maxh 0.05 --depth 1.6
     ngsgel run microlens --out results/microlens_mu --maxh 0.02 --mu-at 0.859 --mu-to=1.5e-4
     ngsgel run microlens --out results/microlens_rise --model shell --polygon 4 --polygon-at 0.859 --mu-to=1.6e-4 --mu-steps 16
+    ngsgel run microlens --resume results/microlens_shell   # a stopped run, on from its last checkpoint
 """
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import matplotlib
 
@@ -66,9 +69,10 @@ import ngsolve as ngs
 
 from geometries import cap_midsurface, cap_section
 from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, NewtonError, follow_path, ramp
-from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, StabilityOptions
+from ngsgel.continuation import Checkpoint, ContinuationError, Event, PathResult, Resumption, StabilityOptions
 from ngsgel.harmonic import HarmonicStability, first_harmonic_instability
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import (History, Progress, RunDirectory, VTKSeries, command_options, quick_run, resume_arguments,
+                           scene_parser)
 from ngsgel.patterns import WaveAnalysis, load_drops, periodic_peaks, wave_number
 from ngsgel.relaxation import settle, settle_after
 from ngsgel.shell import GelShell
@@ -403,14 +407,15 @@ def shell_qoi(cap: ShellCap) -> dict:
 
 
 def indent_axisymmetric_shell(cap: ShellCap, target: float, *, step: float, history=None, vtk=None,
-                              progress=None) -> PathResult:
+                              progress=None, checkpoint_file=None, resume: Checkpoint | None = None) -> PathResult:
     """The shell pushed to the depth ``target`` along its axisymmetric branch: natural steps
     without stability analysis, so the path stays on that branch past its bifurcations (nothing
     but round-off seeds a non-axisymmetric mode, and Newton converges to the nearest equilibrium,
-    stable or not). A step Newton cannot make raises (``ContinuationError``)."""
+    stable or not). A step Newton cannot make raises (``ContinuationError``).
+    ``checkpoint_file``/``resume``: see ``follow_path``."""
     return follow_path(cap.shell, cap.depth, method="natural", step=step, max_step=step, target=target,
                        min_step=step / 16, qoi=shell_qoi(cap), history=history, vtk=vtk, progress=progress,
-                       newton_options={"reuse_factorisation": True})
+                       newton_options={"reuse_factorisation": True}, checkpoint_file=checkpoint_file, resume=resume)
 
 
 def check_polygon(k: int, amplitude: float, *, at: float | None = None, depth: float | None = None) -> None:
@@ -454,15 +459,15 @@ def push_into_polygon(cap: ShellCap, k: int, *, amplitude: float, progress=None)
 
 def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step: float, max_step: float,
                  history=None, vtk=None, progress=None, stage: str = "indentation", checkpoint_file=None,
-                 restart: Checkpoint | None = None) -> PathResult:
+                 restart: Checkpoint | None = None, resume: Checkpoint | None = None) -> PathResult:
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
     onto the bifurcated branch; steps that converge far from their predictor (``JUMP_RATIO``)
     or whose Newton solve does not halve its residual in ``STALL_WINDOW`` iterations are cut as
     failed. A path that cannot go on (a limit point under displacement control)
     ends with ``stop_reason`` "stalled: ..." instead of raising; one left on an unstable branch (the
-    location or the branch switch failed) stops there ("criterion"). ``checkpoint_file``/``restart``:
-    see ``follow_path``."""
+    location or the branch switch failed) stops there ("criterion"). ``checkpoint_file``/``restart``/
+    ``resume``: see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
     try:
@@ -471,7 +476,7 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                            min_step=step / 16,
                            stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
                            qoi=shell_qoi(cap), history=history, vtk=vtk, progress=progress,
-                           checkpoint_file=checkpoint_file, restart=restart,
+                           checkpoint_file=checkpoint_file, restart=restart, resume=resume,
                            # on an unstable branch: a change whose location or branch switch failed
                            stop=lambda pt: pt.negative > 0,
                            # two stable states coexist on some paths (lateral 0.6R, bonded patch): a
@@ -505,10 +510,12 @@ class HarmonicMonitor:
 
 
 def follow_axisymmetric(cap: AxisymmetricCap, *, kmax: int, step: float, max_step: float,
-                        target: float | None = None, history=None, vtk=None, progress=None) -> PathResult:
+                        target: float | None = None, history=None, vtk=None, progress=None, checkpoint_file=None,
+                        resume: Checkpoint | None = None) -> PathResult:
     """The axisymmetric path to the depth ``target`` (default: the case's final depth) by
     arclength, with the exact axisymmetric stability (limit points, axisymmetric bifurcations)
-    and the harmonic scan at every state."""
+    and the harmonic scan at every state. ``checkpoint_file``/``resume``: see ``follow_path``
+    (the checkpoint keeps every state: ``first_nonaxisymmetric`` starts from one of them)."""
     monitor = HarmonicMonitor(cap, kmax)
     qoi = {"d_over_H": lambda: cap.depth.Get() / cap.case.H, "force": cap.force,
            "volume_change": cap.volume_change, "lowest_nonaxisymmetric": monitor.update,
@@ -518,7 +525,8 @@ def follow_axisymmetric(cap: AxisymmetricCap, *, kmax: int, step: float, max_ste
                        min_step=step * 1e-4, target=cap.case.depth * cap.case.H if target is None else target,
                        max_steps=400, qoi=qoi,
                        stability=StabilityOptions(eigenvalues=1, locate=True, tol=1e-5 * cap.case.H),
-                       keep_states=True, history=history, vtk=vtk, progress=progress)
+                       keep_states=True, history=history, vtk=vtk, progress=progress, checkpoint_file=checkpoint_file,
+                       resume=resume)
 
 
 def first_nonaxisymmetric(cap: AxisymmetricCap, path: PathResult, *, kmax: int) -> dict | None:
@@ -744,14 +752,16 @@ def draw_mu_change(case: Indentation, change: dict, filename) -> None:
 def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, step: float = 0.01,
         max_step: float = 0.04, fit_depth: float = 0.1, mu_at: float | None = None, mu_to: float | None = None,
         mu_steps: int = 10, hold: str = "depth", mu_kmax: int = 40, departures: tuple[float, ...] = (),
-        progress=None) -> dict:
+        progress=None, options: dict | None = None, resume: bool = False) -> dict:
     """One indentation on the axisymmetric model; ``step``/``max_step`` in units of ``H``. With
     ``mu_at`` (depth / H) the indentation stops there and ``mu`` goes to ``mu_to`` in
     ``mu_steps`` steps with the apex ``hold`` (``change_mu_axisymmetric``; ``mu_change.csv``),
     scanning ``k <= mu_kmax`` (a rise wrinkles the clamped rim at k ~ 20-30, docs/microlens.md).
     ``departures`` (depths / H): the growth threshold of a stabilised run that leaves the
     axisymmetric path there and the wave number it shows (``departure``; all states in
-    ``growth.csv``)."""
+    ``growth.csv``). The path rewrites ``checkpoint.npz`` every step; ``resume``: the run in
+    ``out`` goes on from it (the mu change, which has none, runs again). ``options``: the
+    command line, kept in ``params.json`` (``ngsgel.output.resume_arguments``)."""
     check_mu_change(case, mu_at=mu_at, mu_to=mu_to, mu_steps=mu_steps, hold=hold)
     bad = [d for d in departures if not (math.isfinite(d) and 0 < d <= case.depth)]
     if bad:
@@ -759,14 +769,18 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
     start = time.perf_counter()
     run_dir = RunDirectory(out, params={"case": asdict(case), "resolution": asdict(res), "kmax": kmax, "mu_kmax": mu_kmax,
                                         "model": "axisymmetric", "t_over_r": THICKNESS_RATIO, "mu_at": mu_at,
-                                        "mu_to": mu_to, "mu_steps": mu_steps, "hold": hold})
+                                        "mu_to": mu_to, "mu_steps": mu_steps, "hold": hold, "options": options},
+                           resume=resume)
+    if not resume:
+        remove_checkpoints(run_dir, ("checkpoint*.npz",))
+    checkpoint = Resumption(resume).take(run_dir.file("checkpoint.npz"))
     cap = AxisymmetricCap(case, res)
     target = case.depth if mu_at is None else mu_at
     with History(run_dir.file("path.csv")) as history:
         path = follow_axisymmetric(cap, kmax=kmax, step=step * case.H, max_step=max_step * case.H,
                                    target=target * case.H, history=history,
-                                   vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap")),
-                                   progress=progress)
+                                   vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.series("cap")),
+                                   progress=progress, checkpoint_file=run_dir.file("checkpoint.npz"), resume=checkpoint)
     summary = {
         "ndof": cap.problem.space.ndof, "t": case.t, "r": case.r,
         "stop_reason": path.stop_reason, "steps": len(path.points) - 1,
@@ -798,14 +812,14 @@ def run(case: Indentation, res: SectionResolution, out: str, *, kmax: int = 8, s
         cap.problem.solve()
         with History(run_dir.file("mu_change.csv")) as history:
             rows, stop = change_mu_axisymmetric(cap, mu_to, steps=mu_steps, kmax=mu_kmax, hold=hold, history=history,
-                                                vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.file("cap_mu")),
+                                                vtk=VTKSeries(cap.mesh, cap.problem.fields(), run_dir.series("cap_mu")),
                                                 progress=progress)
         summary["mu_change"] = {"hold": hold, "d_over_H": mu_at, "rows": rows, "stop_reason": stop,
                                 "axisymmetric_stable": [row["mu"] for row in rows if not row["unstable_k"]]}
         draw_mu_change(case, summary["mu_change"], run_dir.file("mu_change.png"))
     summary["wall_s"] = time.perf_counter() - start
-    run_dir.write_json("summary.json", summary)
     draw(case, path, summary, run_dir.file("force_depth.png"))
+    run_dir.write_json("summary.json", summary)  # last: a folder with it holds a finished run
     return summary
 
 
@@ -826,23 +840,34 @@ def vertex_sequence(path: PathResult) -> list[dict]:
 def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *, step: float, max_step: float,
                          snaps: int, tau: float | None, history, vtk, progress, run_dir: RunDirectory,
                          checkpoint_name: str = "checkpoint.npz", stage: str = "indentation",
-                         restart: Checkpoint | None = None) -> PathResult:
+                         restart: Checkpoint | None = None, resumption: Resumption | None = None) -> PathResult:
     """``follow_shell`` of ``parameter`` (the depth or ``mu``) to ``end``; where it stalls (no
     equilibrium found next to the last one: a snap under displacement control, or a step Newton
     cannot make next to a critical state) or loses stability at a point it could not locate, the
     parameter moves one ``step`` further and the cap relaxes there by the overdamped flow
     (``ngsgel.relaxation.settle_after``) to a stable state, recorded as a "snap" event (force and
     vertex count before and after, energy drop, cost), and the path goes on from it; at most
-    ``snaps`` times. The legs are joined into one path; ``snaps.json`` in the run folder."""
+    ``snaps`` times. The legs are joined into one path; ``snaps_<stage>.json`` in the run folder.
+    The legs keep their checkpoint in ``checkpoint_name`` (a leg that a snap ends moved to
+    ``<stem>_leg<n>.npz``: ``Resumption``); a ``resumption`` takes them up, and a snap whose next
+    leg has begun is not relaxed again (its record is read back)."""
+    resumption = resumption or Resumption(False)
+    latest = run_dir.file(checkpoint_name)
+    snaps_file = run_dir.file(f"snaps_{stage.replace(' ', '_')}.json")  # snaps_indentation.json, ...
     legs, records = [], []
     while True:
+        resume = resumption.take(latest, len(legs))
         path = follow_shell(cap, parameter, end, step=step, max_step=max_step, history=history, vtk=vtk,
-                            progress=progress, stage=stage, checkpoint_file=run_dir.file(checkpoint_name),
-                            restart=restart if not legs else None)
+                            progress=progress, stage=stage, checkpoint_file=latest,
+                            restart=restart if not legs and resume is None else None, resume=resume)
         legs.append(path)
         lost = path.stop_reason == "criterion"  # left on an unstable branch (follow_shell's stop)
         if not (path.stop_reason.startswith("stalled") or lost) or len(records) >= snaps:
             break
+        Resumption.end_leg(latest, len(legs) - 1)
+        if resumption.reached(latest, len(legs)):  # the stopped run had relaxed: its record
+            records.append(json.loads(snaps_file.read_text())[len(records)])
+            continue
         last = path.points[-1]
         clock = time.perf_counter()
         settled = settle_after(cap.shell, parameter, path, overshoot=step, target=end,
@@ -859,7 +884,7 @@ def follow_through_snaps(cap: ShellCap, parameter: ngs.Parameter, end: float, *,
         records.append(record)
         draw_deflection(cap, run_dir.file(f"shape_{stage.replace(' ', '_')}_snap{len(records)}.png"),
                         title=f"after snap {len(records)}: {cap.state_label()}")
-        run_dir.write_json(f"snaps_{stage.replace(' ', '_')}.json", records)  # snaps_indentation.json, ...
+        run_dir.write_json(snaps_file.name, records)
         if progress is not None:
             progress(f"snap to d/H {record['d_over_H']:.4f}, mu {record['mu']:.4g}: force "
                      f"{record['force_before']:.5g} -> {record['force_after']:.5g}, "
@@ -1021,15 +1046,20 @@ def _hold_force(cap: AxisymmetricCap, force: float, *, step: float = 0.005, max_
 def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float = 0.025, max_step: float = 0.05,
               mu_at: float | None = None, mu_to: float | None = None, mu_steps: int = 10, restart: str | None = None,
               snaps: int = 3, snap_tau: float | None = None, polygon: int | None = None, polygon_at: float | None = None,
-              polygon_amplitude: float = 0.5, progress=None) -> dict:
+              polygon_amplitude: float = 0.5, progress=None, options: dict | None = None, resume: bool = False) -> dict:
     """One apex load on the shell (steps in units of ``H``); with ``mu_at`` (depth / H) the
     indentation stops there and ``mu`` goes to ``mu_to`` in ``mu_steps`` steps at that depth
     (``mu_at`` omitted with ``restart``: at the checkpoint's depth). ``mu_to`` may lie above the
     bath's 0 up to the gel's ``mu_max`` (a slight swelling, as in the thesis's fig. 3-3B).
     Where the path stalls, the cap snaps at the next depth (at most ``snaps`` times, first
     pseudo-time step ``snap_tau``; see ``follow_through_snaps``).
-    Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage) in the run folder;
-    ``restart`` (such a file of the indentation) goes on from it.
+    Every step rewrites ``checkpoint.npz`` (``mu_change.npz`` in the mu stage,
+    ``axisymmetric_push.npz`` before a polygonal push; the path up to the n-th snap moves to
+    ``..._leg<n-1>.npz``) in the run folder; ``restart`` (such a file of an indentation) starts
+    from it. ``resume``: the run in ``out``
+    goes on from its last checkpoint (a polygonal push or a snap whose next path has no checkpoint
+    yet is relaxed again). ``options``: the command line, kept in ``params.json``
+    (``ngsgel.output.resume_arguments``).
     ``polygon = k``: instead of following the path through its bifurcations, the cap is pushed to
     ``polygon_at`` (depth / H) on its axisymmetric branch and relaxed there from a ``k``-fold push
     of ``polygon_amplitude`` thicknesses (``push_into_polygon``; ``path_axisymmetric.csv``,
@@ -1051,16 +1081,21 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
                                         "t_over_r": THICKNESS_RATIO, "step": step, "max_step": max_step,
                                         "mu_at": mu_at, "mu_to": mu_to, "mu_steps": mu_steps, "restart": restart,
                                         "snaps": snaps, "snap_tau": snap_tau, "polygon": polygon,
-                                        "polygon_at": polygon_at, "polygon_amplitude": polygon_amplitude})
+                                        "polygon_at": polygon_at, "polygon_amplitude": polygon_amplitude,
+                                        "options": options}, resume=resume)
+    if not resume:
+        remove_checkpoints(run_dir, ("checkpoint*.npz", "mu_change*.npz", "axisymmetric_push.npz"))
+    resumption = Resumption(resume)
     cap = ShellCap(case, res)
-    vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.file("cap"))
+    vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.series("cap"))
     if polygon is not None:
         depth_end = polygon_at * case.H
     elif mu_to is None:
         depth_end = case.depth * case.H
     else:  # the checkpoint's own depth exactly: the indentation stage is then its one re-converged state
         depth_end = checkpoint.parameter if mu_at is None else mu_at * case.H
-    snap_options = {"snaps": snaps, "tau": snap_tau, "vtk": vtk, "progress": progress, "run_dir": run_dir}
+    snap_options = {"snaps": snaps, "tau": snap_tau, "vtk": vtk, "progress": progress, "run_dir": run_dir,
+                    "resumption": resumption}
     made = None
     with History(run_dir.file("path.csv")) as history:
         if polygon is None:
@@ -1068,14 +1103,20 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
                                                            max_step=max_step * case.H, history=history,
                                                            restart=checkpoint, **snap_options))]
         else:
+            push_file = run_dir.file("axisymmetric_push.npz")
             with History(run_dir.file("path_axisymmetric.csv")) as axisymmetric_history:  # no eigenvalue columns
                 stages = [("axisymmetric push", indent_axisymmetric_shell(cap, depth_end, step=step * case.H,
                                                                     history=axisymmetric_history, vtk=vtk,
-                                                                    progress=progress))]
-            made = push_into_polygon(cap, polygon, amplitude=polygon_amplitude, progress=progress)
-            run_dir.write_json("polygon.json", made)
-            draw_deflection(cap, run_dir.file("shape_polygon.png"), title=f"relaxed from a {polygon}-fold push: "
-                                                                          f"{cap.state_label()}")
+                                                                    progress=progress, checkpoint_file=push_file,
+                                                                    resume=resumption.take(push_file)))]
+            following = "mu_change.npz" if mu_to is not None else "checkpoint.npz"  # the next stage's checkpoint
+            if resumption.reached(run_dir.file(following), 0):  # the stopped run had made the polygon: its record
+                made = json.loads(run_dir.file("polygon.json").read_text())
+            else:
+                made = push_into_polygon(cap, polygon, amplitude=polygon_amplitude, progress=progress)
+                run_dir.write_json("polygon.json", made)
+                draw_deflection(cap, run_dir.file("shape_polygon.png"), title=f"relaxed from a {polygon}-fold push: "
+                                                                              f"{cap.state_label()}")
             if progress is not None:
                 progress(f"pushed {polygon}-fold ({polygon_amplitude} t) at d/H {made['d_over_H']:.4f}: relaxed to k = "
                          f"{made['k_after']:.0f} ({made['amplitude_after_over_t']:.3f} t), force {made['force']:.5g}, "
@@ -1093,7 +1134,6 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
     if made is not None:
         summary["polygon"] = made
     summary["wall_s"] = time.perf_counter() - start
-    run_dir.write_json("summary.json", summary)
     depth_stages = [(name, path) for name, path in stages if name != "mu change"]
     joined = PathResult([pt for _, path in depth_stages for pt in path.points],
                         [ev for _, path in depth_stages for ev in path.events],
@@ -1102,55 +1142,83 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
                run_dir.file("force_depth.png"))
     cap.update_waves()
     draw_deflection(cap, run_dir.file("shape_end.png"), title=f"end: {cap.state_label()}")
+    run_dir.write_json("summary.json", summary)  # last: a folder with it holds a finished run
     return summary
 
 
+def remove_checkpoints(run_dir: RunDirectory, patterns: tuple[str, ...]) -> None:
+    """Remove the checkpoints an earlier run left in the folder of a fresh one: resuming it would
+    take them for its own."""
+    for pattern in patterns:
+        for stale in run_dir.path.glob(pattern):
+            stale.unlink()
+
+
 def main(argv=None) -> dict:
-    parser = scene_parser(__doc__, out="results/microlens", quick="coarse section, H = 0.3, to d/H = 0.6")
-    parser.add_argument("--H", type=float, default=0.3, help="apex height / base radius")
-    parser.add_argument("--direction", default="inward", choices=DIRECTIONS)
-    parser.add_argument("--depth", type=float, default=1.0, help="final depth / H")
-    parser.add_argument("--mu", type=float, default=0.0, help="chemical potential of the bath")
+    parser = scene_parser(__doc__, out="results/microlens",
+                          quick="axisymmetric: coarse section (maxh 0.04 R, order 2), H = 0.3 R, to d/H = 0.6; shell: "
+                                "coarse half cap (h = 0.2 R, order 2, no C++ compile) to d/H = 0.3, steps 0.1 H")
+    parser.add_argument("--H", type=float, default=0.3, help="apex height H / base radius R")
+    parser.add_argument("--direction", default="inward", choices=DIRECTIONS,
+                        help="of the apex displacement (lateral: along x, shell only)")
+    parser.add_argument("--depth", type=float, default=1.0, help="final apex displacement d / H")
+    parser.add_argument("--mu", type=float, default=0.0, help="chemical potential of the bath (kT), in [-1, 0]")
     parser.add_argument("--edge", default="clamped", choices=EDGES,
                         help="support of the base: clamped (the thesis's) or hinged at its mid-surface")
     parser.add_argument("--indenter", default="sliding", choices=INDENTERS,
                         help="apex patch: sliding (only the loaded component prescribed) or bonded (all held)")
-    parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric", "shell"))
+    parser.add_argument("--model", default="axisymmetric", choices=("axisymmetric", "shell"),
+                        help="the r-z section with the harmonic scan, or the shell on the mid-surface")
     parser.add_argument("--maxh", type=float, default=None,
-                        help="cell length along the section (axisymmetric, default 0.01) or element size of the "
-                             "mid-surface (shell, default 0.05)")
-    parser.add_argument("--apex-maxh", type=float, default=0.01, help="shell: element size on the apex patch")
+                        help="cell length along the section / R (axisymmetric, default 0.01) or element size of the "
+                             "mid-surface / R (shell, default 0.05)")
+    parser.add_argument("--apex-maxh", type=float, default=0.01, help="shell: element size on the apex patch / R")
     parser.add_argument("--full", action="store_true", help="shell: the whole cap instead of the mirror half")
-    parser.add_argument("--step", type=float, default=0.025, help="shell: depth step / H (natural parameter)")
+    parser.add_argument("--step", type=float, default=0.025,
+                        help="shell: depth step / H (natural parameter; it grows to twice this)")
     parser.add_argument("--mu-at", type=float, default=None,
-                        help="change mu at this depth / H (shell: default with --restart the checkpoint's) ...")
-    parser.add_argument("--mu-to", type=float, default=None, help="... to this value (up to the gel's mu_max > 0)")
+                        help="change mu at this depth d / H (default: no change; shell with --restart: at the "
+                             "checkpoint's depth) ...")
+    parser.add_argument("--mu-to", type=float, default=None,
+                        help="... to this chemical potential (kT; up to the gel's mu_max > 0; default: none) ...")
     parser.add_argument("--mu-steps", type=int, default=10, help="... in this many steps")
     parser.add_argument("--hold", default="depth", choices=MU_HOLDS,
                         help="axisymmetric: what the indenter keeps while mu changes (shell: the depth)")
-    parser.add_argument("--restart", default=None,
-                        help="shell: go on from this checkpoint.npz of an earlier run (same case and mesh)")
+    parser.add_argument("--restart", default=None, metavar="CHECKPOINT",
+                        help="shell: a new run (in --out) from this checkpoint (.npz) of another run with the same case "
+                             "and mesh, e.g. on to another --depth or with --mu-to (default: none)")
+    parser.add_argument("--resume", default=None, metavar="DIR",
+                        help="go on with the stopped run in DIR from its last checkpoint to the end it would have "
+                             "reached, with its own options (its params.json; an option given as well must agree); "
+                             "summary.json's wall_s is then the resumed part's (default: none, a new run)")
     parser.add_argument("--snaps", type=int, default=3,
                         help="shell: where the path stalls, relax to a stable state one step deeper, at most this often")
     parser.add_argument("--snap-tau", type=float, default=None,
-                        help="shell: first pseudo-time step of that relaxation (default 1 / lowest eigenvalue)")
-    parser.add_argument("--polygon", type=int, default=None,
+                        help="shell: first pseudo-time step of that relaxation (of M dx/dtau = -R, in units of 1 / "
+                             "eigenvalue of the tangent against M; default 1 / lowest eigenvalue, 0.5 / |lowest| if "
+                             "negative)")
+    parser.add_argument("--polygon", type=int, default=None, metavar="K",
                         help="shell, with --polygon-at: push the cap to that depth on its axisymmetric branch and relax "
                              "it there from a K-fold push (instead of following the bifurcations), then change mu "
-                             "(with --mu-to) or go on to --depth")
-    parser.add_argument("--polygon-at", type=float, default=None, help="... the depth / H of that push")
-    parser.add_argument("--polygon-amplitude", type=float, default=0.5, help="... of this many thicknesses")
-    parser.add_argument("--layers", type=int, default=2)
-    parser.add_argument("--order", type=int, default=3)
+                             "(with --mu-to) or go on to --depth (default: none, follow the bifurcations)")
+    parser.add_argument("--polygon-at", type=float, default=None,
+                        help="... the depth d / H of that push (default: none)")
+    parser.add_argument("--polygon-amplitude", type=float, default=0.5, help="... of this many thicknesses t")
+    parser.add_argument("--layers", type=int, default=2, help="axisymmetric: cells across the wall")
+    parser.add_argument("--order", type=int, default=3, help="polynomial order of the displacement")
     parser.add_argument("--apex", type=float, default=0.02, help="radius of the loaded apex patch / R")
-    parser.add_argument("--kmax", type=int, default=8, help="wave numbers scanned along the axisymmetric path")
+    parser.add_argument("--kmax", type=int, default=8,
+                        help="axisymmetric: wave numbers k = 1 .. KMAX scanned along the path")
     parser.add_argument("--mu-kmax", type=int, default=40,
-                        help="... and at every mu of a mu change (a rise wrinkles the clamped rim at k ~ 20-30)")
-    parser.add_argument("--fit-depth", type=float, default=0.1, help="fit the early response up to this d/H")
+                        help="... and k = 0 .. MU_KMAX at every mu of a mu change (a rise wrinkles the clamped rim at "
+                             "k ~ 20-30)")
+    parser.add_argument("--fit-depth", type=float, default=0.1, help="fit the early force F/(E0 t^2) up to this d/H")
     parser.add_argument("--departure", type=float, nargs="*", default=[],
-                        help="axisymmetric: d/H where a stabilised run is taken to leave the axisymmetric path "
-                             "(the growth threshold and wave number it implies)")
-    args = parser.parse_args(argv)
+                        help="axisymmetric: depths d / H where a stabilised run is taken to leave the axisymmetric "
+                             "path (the growth threshold and wave number it implies; default: none)")
+    args = resume_arguments(parser, argv)
+    if args.resume is None and args.restart is not None:  # a resumed run finds it from any working folder
+        args.restart = str(Path(args.restart).resolve())
     quick = quick_run(args)
     if args.model == "shell":
         return main_shell(args, quick)
@@ -1167,8 +1235,9 @@ def main(argv=None) -> dict:
     if not 0 < args.fit_depth <= 1:
         raise ValueError(f"fit-depth must be in (0, 1], got {args.fit_depth!r}")
     summary = run(case, res, args.out, kmax=args.kmax, mu_kmax=args.mu_kmax, fit_depth=args.fit_depth, mu_at=args.mu_at,
-                  mu_to=args.mu_to,
-                  mu_steps=args.mu_steps, hold=args.hold, departures=tuple(args.departure), progress=Progress("microlens"))
+                  mu_to=args.mu_to, mu_steps=args.mu_steps, hold=args.hold, departures=tuple(args.departure),
+                  progress=Progress("microlens", quiet=args.quiet), options=command_options(args),
+                  resume=args.resume is not None)
     first = summary["first_nonaxisymmetric"]
     print(f"H/R = {case.H}, {case.direction}: {summary['steps']} steps, events "
           f"{[(e['kind'], round(e['d_over_H'], 4)) for e in summary['events']]}, snaps "
@@ -1199,8 +1268,8 @@ def main_shell(args, quick: bool) -> dict:
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
                         mu_at=args.mu_at, mu_to=args.mu_to, mu_steps=args.mu_steps, restart=args.restart, snaps=args.snaps,
                         snap_tau=args.snap_tau, polygon=args.polygon, polygon_at=args.polygon_at,
-                        polygon_amplitude=args.polygon_amplitude,
-                        progress=Progress("microlens shell"))
+                        polygon_amplitude=args.polygon_amplitude, progress=Progress("microlens shell", quiet=args.quiet),
+                        options=command_options(args), resume=args.resume is not None)
     for name in ("axisymmetric push", "indentation", "mu change"):
         if name in summary:
             stage = summary[name]
