@@ -50,7 +50,7 @@ from ngsgel.scenes.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, Radi
 from ngsgel.newton import NewtonError
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number
-from ngsgel.stability import free_matrix, load_rate, mass_matrix, mode_function, negative_count
+from ngsgel.stability import arpack_start, free_matrix, load_rate, mass_matrix, mode_function, negative_count
 from ngsgel.stepping import ramp
 from ngsgel.supports import pin_rigid_modes, pin_vertex_component, vertex_dof
 
@@ -305,10 +305,10 @@ def negative_modes(p, negative: int) -> tuple[np.ndarray, np.ndarray]:
         # Not "LM" (nearest zero): at n_theta = 256, p = 2 the four nearest zero came back as
         # -8.2e-5, +2.8e-5 twice and +3.8e-5, without the second negative one; asking for more
         # until all were found took 8 s at the quick onset
-        values, vectors = eigsh(A, k=negative, M=M, sigma=0.0, which="SA", OPinv=OPinv)
+        values, vectors = eigsh(A, k=negative, M=M, sigma=0.0, which="SA", OPinv=OPinv, v0=arpack_start(n))
     else:  # one member of a pair split by the mesh crossed (48 cells, p = 4: n = 24 = 48/2): it and
         # the nearest positive one, its partner
-        values, vectors = eigsh(A, k=2, M=M, sigma=0.0, which="LM", OPinv=OPinv)
+        values, vectors = eigsh(A, k=2, M=M, sigma=0.0, which="LM", OPinv=OPinv, v0=arpack_start(n))
     order = np.argsort(values)
     values, vectors = values[order], vectors[:, order]
     if np.count_nonzero(values < 0) != negative:
