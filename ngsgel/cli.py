@@ -1,7 +1,9 @@
 """The ``ngsgel`` command: ``ngsgel list``, ``ngsgel run SCENE [options]``, ``ngsgel reproduce``.
 
 ``ngsgel run SCENE --help`` shows a scene's own options with units and defaults; everything after
-the scene's name is handed to the scene's ``main``.
+the scene's name is handed to the scene's ``main``. ``ngsgel --threads N COMMAND ...`` runs the
+command with NGSolve on ``N`` threads and the BLAS libraries on one (``ngsgel.set_threads``);
+without it NGSolve takes its default (every core). The gears scenes keep their own ``--threads``.
 """
 
 from __future__ import annotations
@@ -10,8 +12,10 @@ import argparse
 import sys
 
 from .scenes import SCENES, scene
+from .threads import using_threads
 
-USAGE = """ngsgel list                                   the scenes, with their thesis chapter
+USAGE = """ngsgel [--threads N] COMMAND ...              N NGSolve threads (BLAS on one) for the command
+ngsgel list                                   the scenes, with their thesis chapter
 ngsgel run SCENE [--quick] [--out DIR] [...]  run one scene (ngsgel run SCENE --help)
 ngsgel reproduce [--quick] [--only ch3,ch4] --out DIR
                                               the thesis's numbers against ours, one report"""
@@ -39,6 +43,11 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = argparse.ArgumentParser(prog="ngsgel", usage=USAGE, description=__doc__.split("\n\n")[0])
     parser.add_argument("command", choices=("list", "run", "reproduce"))
+    if argv and argv[0] == "--threads":
+        if len(argv) < 2 or not argv[1].isdigit() or int(argv[1]) < 1:
+            parser.error(f"--threads needs an integer >= 1, got {argv[1] if len(argv) > 1 else 'nothing'}")
+        with using_threads(int(argv[1])):
+            return main(argv[2:])
     if not argv or argv[0] in ("-h", "--help"):
         parser.print_help()
         return 0

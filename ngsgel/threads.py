@@ -17,7 +17,7 @@ from numbers import Integral
 import ngsolve as ngs
 import threadpoolctl
 
-__all__ = ["set_threads", "using_threads"]
+__all__ = ["set_threads", "using_threads", "configured_threads"]
 
 
 def _check(n) -> None:
@@ -34,11 +34,18 @@ def set_threads(n: int) -> None:
     threadpoolctl.threadpool_limits(1, user_api="blas")
 
 
+def configured_threads() -> int:
+    """The number of threads NGSolve's parallel parts run on. (``ngs.GetNumThreads()`` says how
+    many run now: 1 outside a ``TaskManager``, whatever was set.)"""
+    with ngs.TaskManager():
+        return ngs.GetNumThreads()
+
+
 @contextmanager
 def using_threads(n: int) -> Iterator[None]:
     """``set_threads(n)`` for the block; NGSolve's count and the BLAS limits are restored after."""
     _check(n)
-    before = ngs.GetNumThreads()
+    before = configured_threads()
     with threadpoolctl.threadpool_limits(1, user_api="blas"):
         ngs.SetNumThreads(int(n))
         try:

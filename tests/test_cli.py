@@ -64,3 +64,23 @@ def test_quiet_silences_a_scenes_progress(tmp_path, capsys):
     main(["run", "buckling-demo", "--quick", "--quiet", "--out", str(tmp_path / "quiet")])
     assert capsys.readouterr().err == ""
     assert (tmp_path / "quiet" / "history.csv").read_text() == (tmp_path / "loud" / "history.csv").read_text()
+
+
+def test_threads_option_holds_for_the_command_and_is_restored(monkeypatch):
+    import threadpoolctl
+
+    from ngsgel import cli
+    from ngsgel.threads import configured_threads
+
+    seen = []
+    monkeypatch.setattr(cli, "list_scenes", lambda: seen.append(
+        (configured_threads(), {info["num_threads"] for info in threadpoolctl.threadpool_info()
+                                if info["user_api"] == "blas"})))
+    before = configured_threads()
+    assert before != 3
+    assert main(["--threads", "3", "list"]) == 0
+    assert seen == [(3, {1})]  # NGSolve on 3, every BLAS pool on one
+    assert configured_threads() == before
+    for bad in (["--threads", "0", "list"], ["--threads", "two", "list"], ["--threads"]):
+        with pytest.raises(SystemExit):
+            main(bad)

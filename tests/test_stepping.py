@@ -8,6 +8,7 @@ import threadpoolctl
 
 from geometries import block
 from ngsgel import (EquilibriumProblem, FloryRehnerGel, RampError, Solid3D, ramp, set_threads, using_threads)
+from ngsgel.threads import configured_threads
 
 from test_equilibrium import corner_stretch, swelling_problem
 
@@ -122,18 +123,21 @@ def _blas_threads() -> set[int]:
 
 
 def test_threads_set_ngsolve_and_limit_blas_and_are_restored():
-    before, blas_before = ngs.GetNumThreads(), _blas_threads()
-    with using_threads(1):
-        assert ngs.GetNumThreads() == 1 and _blas_threads() == {1}
-    assert ngs.GetNumThreads() == before and _blas_threads() == blas_before
+    # NGSolve's count is the one its next TaskManager runs with (configured_threads); 3 differs
+    # from every default on this machine, so a setting that did not reach NGSolve shows
+    before, blas_before = configured_threads(), _blas_threads()
+    assert before != 3
+    with using_threads(3):
+        assert configured_threads() == 3 and _blas_threads() == {1}
+    assert configured_threads() == before and _blas_threads() == blas_before
     prob = bonded_block()
     seen = []
-    ramp(prob, prob.mu, values=[-0.095], threads=1,
-         on_step=lambda value, result: seen.append((ngs.GetNumThreads(), _blas_threads())))
-    assert seen == [(1, {1})] and ngs.GetNumThreads() == before
+    ramp(prob, prob.mu, values=[-0.095], threads=3,
+         on_step=lambda value, result: seen.append((configured_threads(), _blas_threads())))
+    assert seen == [(3, {1})] and configured_threads() == before
     try:
-        set_threads(1)
-        assert ngs.GetNumThreads() == 1 and _blas_threads() == {1}
+        set_threads(3)
+        assert configured_threads() == 3 and _blas_threads() == {1}
     finally:
         ngs.SetNumThreads(before)
         threadpoolctl.threadpool_limits(max(blas_before), user_api="blas")

@@ -23,7 +23,8 @@ figs. 4-1 to 4-4: FE onset film, ``mu``, gel volume and wave number against one 
 the ring-on-foundation analysis and the thesis's eq. 4-1; ``efo`` also bisects the analysis's
 switch of the first-buckling film and the Efo ranges where each film buckles before the end),
 ``convergence`` (onset and wave numbers at several resolutions with wall times). Each writes
-``sweep_<name>.csv`` / ``<name>.csv`` and a picture.
+``sweep_<name>.csv`` / ``<name>.csv`` and a picture; ``--resume DIR`` goes on with a stopped sweep
+from the first case it has no row of.
 """
 
 from __future__ import annotations
@@ -48,11 +49,13 @@ from ngsgel.continuation import BorderedCorrector, follow_path
 from ngsgel.scenes.film_tube import (FILM_INNER, FILM_OUTER, GEL, FilmTube, RadialTube, ring_onset,
                               thesis_ring_estimate)
 from ngsgel.newton import NewtonError
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser
+from ngsgel.output import (History, Progress, RunDirectory, VTKSeries, command_options, quick_run, resume_arguments,
+                           scene_parser)
 from ngsgel.patterns import periodic_peaks, sample_on_circle, wave_number
 from ngsgel.stability import arpack_start, free_matrix, load_rate, mass_matrix, mode_function, negative_count
 from ngsgel.stepping import ramp
 from ngsgel.supports import pin_rigid_modes, pin_vertex_component, vertex_dof
+from ngsgel.threads import configured_threads
 
 NV, CHI = 1e-3, 0.5
 ES = 3 * NV  # the thesis's Es = 3NkT, in units of kT/v
@@ -601,6 +604,31 @@ def write_table(path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
+class SweepTable:
+    """A sweep's rows, rewritten after every case: ``<stem>.csv`` to read and ``<stem>.json``, from
+    which a resumed sweep (``resume``) takes the cases done and goes on with the next."""
+
+    def __init__(self, run: RunDirectory, stem: str, *, resume: bool):
+        self.run, self.stem = run, stem
+        done = run.file(f"{stem}.json")
+        self.rows: list[dict] = json.loads(done.read_text()) if resume and done.exists() else []
+
+    def done(self, index: int, case: dict) -> bool:
+        """Whether case ``index`` of the sweep was computed (its row holds ``case``'s values)."""
+        if index >= len(self.rows):
+            return False
+        stored = {key: self.rows[index].get(key) for key in case}
+        if stored != case:
+            raise ValueError(f"row {index} of {self.run.file(self.stem + '.json')} is of the case {stored}, "
+                             f"not {case}: the sweep cannot be resumed")
+        return True
+
+    def add(self, row: dict) -> None:
+        self.rows.append(row)
+        write_table(self.run.file(f"{self.stem}.csv"), self.rows)
+        self.run.write_json(f"{self.stem}.json", self.rows)
+
+
 SWEEPS = {  # parameter: (values, what the sweep reproduces)
     "efo": ((1.0, 3.0, 5.8, 7.23, 8.8, 20.0, 100.0), "figs. 4-1/4-2 and 4-4B: the first-buckling film against Efo/Es"),
     "efi": ((5.0, 12.5, 25.0, 50.0), "fig. 4-3B: inner teeth against Efi/Es (run with --efo 1)"),
@@ -609,13 +637,18 @@ SWEEPS = {  # parameter: (values, what the sweep reproduces)
 }
 
 
-def sweep_parameter(base: Scene, res: Resolution, run: RunDirectory, name: str, values, progress=None) -> list[dict]:
+def sweep_parameter(base: Scene, res: Resolution, run: RunDirectory, name: str, values, progress=None, *,
+                    resume: bool = False) -> list[dict]:
     """FE onset (film, wave number, ``mu`` and gel volume) against one scene parameter, with the
     ring-on-foundation analysis (Michell and our Lame stiffness) and the thesis's eq. 4-1 (its Lame
     stiffness with Es = 3Nv, nu_s = 0.5). Onsets past the thesis's 70 % are found if ``--volume``
-    is below 0.7 (``before_70``: the onset ``mu`` lies above the free gel's 70 % ``mu``)."""
-    rows = []
-    for value in values:
+    is below 0.7 (``before_70``: the onset ``mu`` lies above the free gel's 70 % ``mu``).
+    ``resume``: the values done in ``run`` are taken from its table (``SweepTable``)."""
+    table = SweepTable(run, f"sweep_{name}", resume=resume)
+    rows = table.rows
+    for index, value in enumerate(values):
+        if table.done(index, {name: value}):
+            continue
         scene = Scene(**{**asdict(base), name: float(value)})
         t0 = time.perf_counter()
         model = GearModel(scene, res)
@@ -636,8 +669,7 @@ def sweep_parameter(base: Scene, res: Resolution, run: RunDirectory, name: str, 
             n = row[f"michell_{record['mode_film']}_n"]
             row["fe_k_vs_michell_percent"] = 100.0 * (record["mode_k"] - n) / n
         row["seconds"] = time.perf_counter() - t0
-        rows.append(row)
-        write_table(run.file(f"sweep_{name}.csv"), rows)  # step by step
+        table.add(row)
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.5))
     x = np.array([r[name] for r in rows], dtype=float)
     for film, color in (("inner", "tab:red"), ("outer", "tab:blue")):
@@ -693,15 +725,20 @@ CONVERGENCE = [Resolution(96, 2, 0.5, 2), Resolution(128, 2, 0.5, 1), Resolution
                Resolution(64, 4, 0.5, 1)]
 
 
-def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=None) -> list[dict]:
-    """Onset mu and wave numbers of the critical mode at several resolutions, with wall times."""
-    rows = []
+def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=None, *,
+                      resume: bool = False) -> list[dict]:
+    """Onset mu and wave numbers of the critical mode at several resolutions, with wall times.
+    ``resume``: the resolutions done in ``run`` are taken from its table (``SweepTable``)."""
+    table = SweepTable(run, "convergence", resume=resume)
+    rows = table.rows
     start_mu = check_start(analysis(scene, scene.tube().mu_at_volume_fraction(scene.volume), ("michell",)))
-    for res in resolutions:
+    for index, res in enumerate(resolutions):
+        if table.done(index, asdict(res)):
+            continue
         t0, c0 = time.perf_counter(), time.process_time()
         model = GearModel(scene, res)
         record, _ = onset(model, progress=progress, start_mu=start_mu)
-        rows.append({**asdict(res), "ndof": model.problem.space.ndof, "mu_cr": record and record["mu_cr"],
+        table.add({**asdict(res), "ndof": model.problem.space.ndof, "mu_cr": record and record["mu_cr"],
                      "mode_film": record and record["mode_film"], "k_inner": record and record["mode_k_inner"],
                      "k_outer": record and record["mode_k_outer"],
                      "volume_cr": record and record["volume_fraction_cr"],
@@ -709,10 +746,10 @@ def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=Non
                      "seconds": time.perf_counter() - t0,
                      # the machine is shared: CPU time of the (single-threaded) run is the fair cost
                      "cpu_seconds": time.process_time() - c0})
-        write_table(run.file("convergence.csv"), rows)
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot([r["ndof"] for r in rows], [r["mu_cr"] for r in rows], "o-")
-    for r in rows:
+    located = [r for r in rows if r["mu_cr"] is not None]  # (no onset before the end volume: no point)
+    ax.plot([r["ndof"] for r in located], [r["mu_cr"] for r in located], "o-")
+    for r in located:
         ax.annotate(f"n_theta={r['n_theta']}, p={r['order']}: {r['seconds']:.0f} s", (r["ndof"], r["mu_cr"]),
                     fontsize=7)
     ax.set_xscale("log")
@@ -726,7 +763,7 @@ def sweep_convergence(scene: Scene, resolutions, run: RunDirectory, progress=Non
 
 # ----------------------------------------------------------------------------- main
 def main(argv=None):
-    threads = ngs.GetNumThreads()
+    threads = configured_threads()
     try:
         return _main(argv)
     finally:
@@ -771,7 +808,9 @@ def _main(argv=None):
     parser.add_argument("--threads", type=int, default=1,
                         help="NGSolve threads (1: on the shared 2-core machine, load average ~9, one thread "
                              "was 2x faster for the 2D solves and 30x for the radial 1D analysis)")
-    args = parser.parse_args(argv)
+    parser.add_argument("--resume", default=None, metavar="DIR",
+                        help="go on with the stopped sweep in DIR, from the first case it has no row of, with its options")
+    args = resume_arguments(parser, argv)
     quick = quick_run(args)
     scene = Scene(efi=args.efi, efo=args.efo, ri_tfi=args.ri_tfi, ro_tfo=args.ro_tfo, nu_film=args.nu_film,
                   volume=args.volume, axial=args.axial)
@@ -799,19 +838,23 @@ def _main(argv=None):
                              quick=quick, post_buckling=not args.onset_only, switch_amplitude=args.switch_amplitude)
         print(json.dumps({k: summary.get(k) for k in ("onset", "final", "seconds")}, indent=1, default=str))
         return summary
-    run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep})
+    resume = args.resume is not None
+    run = RunDirectory(args.out, params={"scene": asdict(scene), "resolution": asdict(res), "sweep": args.sweep,
+                                         "options": command_options(args)}, resume=resume)
     if args.sweep in SWEEPS:
         values = args.values or (SWEEPS[args.sweep][0][::3] if quick else SWEEPS[args.sweep][0])
-        rows = sweep_parameter(scene, res, run, args.sweep, values, progress)
+        rows = sweep_parameter(scene, res, run, args.sweep, values, progress, resume=resume)
         if args.sweep == "efo":
             switch = {stiffness: analysis_switch_point(scene, stiffness) for stiffness in ("michell", "lame")}
             run.write_json("switch_point.json", {**switch, "zone_michell": double_onset_zone(scene)})
-        return rows
-    if args.resolutions:
-        resolutions = [parse_resolution(text) for text in args.resolutions]
     else:
-        resolutions = CONVERGENCE_QUICK if quick else CONVERGENCE
-    return sweep_convergence(scene, resolutions, run, progress)
+        if args.resolutions:
+            resolutions = [parse_resolution(text) for text in args.resolutions]
+        else:
+            resolutions = CONVERGENCE_QUICK if quick else CONVERGENCE
+        rows = sweep_convergence(scene, resolutions, run, progress, resume=resume)
+    run.write_json("summary.json", {"sweep": args.sweep, "cases": len(rows)})  # done: --resume refuses it
+    return rows
 
 
 if __name__ == "__main__":
