@@ -112,11 +112,16 @@ class GelShell(BuiltOnDemand):
     dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``); ``realcompile``:
     compile the energy and its first derivative to C++ for the residual (needs a compiler, ~20 s;
     the residual 2x faster: pays off on long paths; the tangent is interpreted either way).
+    ``inverse``: NGSolve's sparse factorisation. UMFPACK by default because its result is a
+    function of the matrix alone: ``sparsecholesky`` on more than one thread is not (repeated
+    factorisations of one matrix solve to results ~1e-15 apart), which is enough to send a run
+    through a symmetric bifurcation to either of two mirror states. The shell's cost is its
+    tangent's assembly, so the slower factorisation hardly shows (docs/benchmarks.md).
     """
 
     def __init__(self, mesh: ngs.Mesh, *, material: FloryRehnerGel, lam0: float, thickness: float,
                  mu: float = 0.0, order: int = 3, thickness_points: int = 2, penalty: float = 4.0,
-                 consistent_moment: bool = False, inverse: str = "sparsecholesky", realcompile: bool = False):
+                 consistent_moment: bool = False, inverse: str = "umfpack", realcompile: bool = False):
         if mesh.dim != 3 or mesh.ne != 0 or mesh.nface == 0:
             raise ValueError("mesh must be a surface mesh in 3D (a mid-surface: no volume elements)")
         if not isinstance(material, FloryRehnerGel):

@@ -42,7 +42,7 @@ def test_a_degenerate_pair_comes_back_in_the_same_basis_after_other_eigen_solves
 
 
 @pytest.mark.slow
-def test_the_coarse_graded_plate_shell_run_repeats_bit_for_bit(tmp_path, monkeypatch):
+def test_the_coarse_graded_plate_shell_run_repeats_bit_for_bit(tmp_path):
     # --quick (half disk, h = 0.2) from just below its onset (-0.22368) with arclength steps of
     # 0.002: the first step crosses the onset, which is located by eigen solves along the step,
     # the disk is pushed both ways along the critical mode (the branch switch keeps one sign), and
@@ -50,18 +50,10 @@ def test_the_coarse_graded_plate_shell_run_repeats_bit_for_bit(tmp_path, monkeyp
     # first run's, as a later leg's follow an earlier one's. (About 2 x 55 s of CPU.)
     from ngsgel.scenes import graded_plate_shell
 
-    # The shell factorises by UMFPACK here: NGSolve's sparsecholesky (the shell's default) is not a
-    # function of its matrix alone (measured: repeated factorisations of one matrix solve to
-    # results that differ by 1e-11 relative); with it, this run's two repetitions landed on
-    # mirror-image saddles (w -> -w: the switch's two candidates tie in exact arithmetic).
-    make = graded_plate_shell.graded_plate_shell
-
-    def umfpack_shell(*args, **kwargs):
-        shell, mesh, pins = make(*args, **kwargs)
-        shell.inverse = "umfpack"
-        return shell, mesh, pins
-
-    monkeypatch.setattr(graded_plate_shell, "graded_plate_shell", umfpack_shell)
+    # The shell factorises by UMFPACK (its default: NGSolve's sparsecholesky on several threads is
+    # not a function of its matrix alone; with it, this run's two repetitions once landed on
+    # mirror-image saddles, w -> -w: the switch's two candidates tie in exact arithmetic).
+    assert graded_plate_shell.graded_plate_shell(10.0, maxh=0.3, order=2, half=True)[0].inverse == "umfpack"
     args = ["--quick", "--mu-start", "-0.2245", "--step", "0.002", "--max-steps", "1"]
     runs = [tmp_path / "first", tmp_path / "second"]
     summaries = [graded_plate_shell.main(args + ["--out", str(out)]) for out in runs]
