@@ -236,6 +236,14 @@ GRADED_DOCUMENTED = [
         "k = 2, 2, 2, 6 at h = 0.2; p = 10: k = 8 at h = 0.15 and 0.1", verdict="documented",
         converged="p = 0.25, 0.75, 2: two meshes; p = 10: not (6 -> 8 -> 8)",
         docs="docs/graded.md#softer-edge-through-the-snaps-to-mu--0-shell-half-disk-added-2026-12-02"),
+    Row("softer edge, p = 10, h = 0.2: end state near mu = 0 is decided by round-off", "k = 8",
+        "k = 6 with purity 0.408 (default run, bit for bit: UMFPACK, seeded eigen solves) or 0.631 (the same "
+        "path to the second snap; its first step after it converges instead of being halved when the "
+        "factorisation's round-off differs: sparsecholesky runs)", verdict="documented",
+        converged="both states: two runs each",
+        explanation="a fold near mu = -0.0016 where a Newton step's success flips with round-off; both end "
+                    "states are stable k = 6 patterns with 6 crests",
+        docs="docs/graded.md#not-done-issue-7-done-when"),
     Row("softer centre: axisymmetric bowl for all p", "cone, cone, lens, bowl", "axisymmetric for every p, cone -> lens -> bowl",
         verdict="documented", docs="docs/graded.md#softer-centre-n0--1e-3-nr--1e-2-tr--001"),
     Row("tube, axially graded: petals", "k = 3, 4, 6 for p = 5, 7.5, 10; none for p <= 3",
