@@ -27,7 +27,8 @@ SOLID3D = "solid3d"
 PLANE = "plane"
 AXISYMMETRIC = "axisymmetric"
 SURFACE = "surface"
-MODELS = (SOLID3D, PLANE, AXISYMMETRIC, SURFACE)
+SPHERICAL = "spherical"  # the radial line x = r of a spherically symmetric body
+MODELS = (SOLID3D, PLANE, AXISYMMETRIC, SURFACE, SPHERICAL)
 
 
 @dataclass(frozen=True)
@@ -35,11 +36,13 @@ class MeshBundle:
     """A mesh together with what a scene needs to know about it.
 
     ``exact_measure`` is the exact measure of the idealised geometry in the model's own
-    sense: volume for ``"solid3d"``, area for ``"plane"`` and ``"surface"``, and the
-    area of the r-z section for ``"axisymmetric"``.  ``exact_volume`` is the volume of
+    sense: volume for ``"solid3d"``, area for ``"plane"`` and ``"surface"``, the
+    area of the r-z section for ``"axisymmetric"`` and the length of the radial line for
+    ``"spherical"``.  ``exact_volume`` is the volume of
     the 3D body the mesh stands for: equal to ``exact_measure`` for ``"solid3d"``,
     ``2 pi int r dA`` (the revolved body) for ``"axisymmetric"``, mid-surface area
-    times thickness for a ``"surface"`` (shell) mesh, and ``None`` for ``"plane"``
+    times thickness for a ``"surface"`` (shell) mesh, the shell or ball for ``"spherical"``,
+    and ``None`` for ``"plane"``
     (per unit depth the volume equals the area).  ``region_measures`` gives the exact
     measure of each region in the same sense as ``exact_measure``.
 

@@ -145,13 +145,13 @@ class HarmonicStability:
         w = X.TrialFunction()
         F0 = prob.deformation_gradient(prob.displacement)
         A, B = self._perturbations(k, w)
-        mu, lam0 = prob.mu, prob.lam0
+        mu, lam0 = prob.mu, prob.lam0_of
         if k == 0:
-            energy = prob.region_sum(lambda mat, _: mat.reference_energy(F0 + A + B, mu, lam0))
+            energy = prob.region_sum(lambda mat, name: mat.reference_energy(F0 + A + B, mu, lam0(name)))
             weight = 1.0
         else:
-            energy = 0.5 * prob.region_sum(lambda mat, _: mat.reference_energy(F0 + A, mu, lam0)
-                                           + mat.reference_energy(F0 + B, mu, lam0))
+            energy = 0.5 * prob.region_sum(lambda mat, name: mat.reference_energy(F0 + A, mu, lam0(name))
+                                           + mat.reference_energy(F0 + B, mu, lam0(name)))
             weight = 0.5
         stiffness = ngs.BilinearForm(X, symmetric=True)
         stiffness += ngs.Variation(energy)

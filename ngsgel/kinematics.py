@@ -68,7 +68,8 @@ class Solid3D(Kinematics):
 
 @dataclass(frozen=True)
 class PlaneStrain(Kinematics):
-    """Section in the x–y plane; the out-of-plane stretch stays at its reference value."""
+    """Section in the x–y plane; the out-of-plane stretch stays at its reference value: each
+    region's ``lam0`` from the dry state (1 with a dry reference, e.g. a layer bonded dry)."""
 
     name = "plane"
     mesh_dim = 2

@@ -34,8 +34,13 @@ class Material:
 
     ``reference_energy(Fp, mu, lam0)`` is the energy per unit volume of the computational
     reference (the mesh), ``Fp`` the deformation gradient from that reference. ``margin`` is a
-    CoefficientFunction that is positive exactly where the state is admissible.
+    CoefficientFunction that is positive exactly where the state is admissible. ``lam0`` is the
+    region's stretch of the mesh from the dry state (a number or a field); it acts only on
+    materials with ``swollen_reference`` (gels), whose mesh is a swollen state of the dry
+    material; the others are stress-free in the mesh state and ignore it.
     """
+
+    swollen_reference = False
 
     def reference_energy(self, Fp, mu, lam0):  # pragma: no cover - interface
         raise NotImplementedError
@@ -57,8 +62,21 @@ def _check_positive_number(name: str, value, *, allow_cf: bool) -> None:
 
 
 def _check_lam0(lam0) -> None:
+    """A free-swollen state ``lam0``, about which moduli are linearised: strictly swollen."""
     if not isinstance(lam0, Real) or not math.isfinite(lam0) or lam0 <= 1.0:
         raise ValueError(f"lam0 must be a number > 1 (the dry state is lam0 = 1), got {lam0!r}")
+
+
+def check_reference_stretch(lam0, *, what: str = "lam0") -> float | ngs.CoefficientFunction:
+    """A reference's stretch from the dry state: a finite number >= 1 (1: the mesh is the dry
+    body) or a scalar CoefficientFunction (whose values the caller checks on its mesh)."""
+    if isinstance(lam0, ngs.CoefficientFunction):
+        if lam0.dim != 1:
+            raise ValueError(f"{what} must be a scalar CoefficientFunction, got one of dimension {lam0.dim}")
+        return lam0
+    if isinstance(lam0, bool) or not isinstance(lam0, Real) or not math.isfinite(lam0) or lam0 < 1.0:
+        raise ValueError(f"{what} must be a number >= 1 (1: the dry state) or a CoefficientFunction, got {lam0!r}")
+    return float(lam0)
 
 
 @dataclass(frozen=True)
@@ -74,6 +92,7 @@ class FloryRehnerGel(Material):
     chi: float
 
     CHI_RANGE = (0.0, 1.5)
+    swollen_reference = True
 
     def __post_init__(self):
         _check_positive_number("Nv", self.Nv, allow_cf=True)
@@ -95,9 +114,16 @@ class FloryRehnerGel(Material):
         return (self.Nv / 2 * (I1 - 3 - 2 * ngs.log(J)) + (J - 1) * ngs.log(1 - 1 / J)
                 - self.chi / J - mu * (J - 1))
 
-    def swollen_energy(self, Fp, mu, lam0: float):
-        """``W'(F', mu) = W(lam0 F', mu) / lam0^3``: per unit volume of the swollen reference."""
-        _check_lam0(lam0)
+    def swollen_energy(self, Fp, mu, lam0: float | ngs.CoefficientFunction):
+        """``W'(F', mu) = W(lam0 F', mu) / lam0^3``: per unit volume of the swollen reference
+        (``lam0`` a number or a field, pointwise: ``lam0 I`` maps the dry state to the reference
+        locally, an intermediate state that need not be compatible).
+
+        ``lam0 = 1`` (the mesh is the dry body) is well defined: ``W`` is finite at ``J = 1``
+        (``(J-1) ln(1 - 1/J) -> 0``), but the mixing pressure ``ln(1 - 1/J) -> -inf`` there, so the
+        undeformed mesh is outside the admissible set ``J > 1`` and a solve must start from a
+        swollen state."""
+        lam0 = check_reference_stretch(lam0)
         J = lam0**3 * ngs.Det(Fp)
         return self._energy(lam0**2 * ngs.InnerProduct(Fp, Fp), J, mu) / lam0**3
 

@@ -22,7 +22,7 @@ import ngsolve as ngs
 
 from .contact import SelfContact
 from .kinematics import Kinematics
-from .materials import FloryRehnerGel, Material, _check_lam0
+from .materials import FloryRehnerGel, Material, check_reference_stretch
 from .newton import LinearSolver, NewtonResult, newton
 
 __all__ = ["EquilibriumProblem", "GelBody"]
@@ -37,6 +37,46 @@ class _Prescribed:
 
 def _as_cf(value) -> ngs.CoefficientFunction:
     return value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(value)
+
+
+# A reference stretch from the dry state: one number or field for every gel region, or one per region.
+Lam0 = float | ngs.CoefficientFunction | Mapping[str, float | ngs.CoefficientFunction]
+_LAM0_FORMS = "a number >= 1, a scalar CoefficientFunction (a field) or a mapping region -> either"
+
+
+def _reference_stretches(mesh: ngs.Mesh, materials: Mapping[str, Material], lam0: Lam0 | None
+                         ) -> dict[str, float | ngs.CoefficientFunction]:
+    """Each region's stretch of the mesh from the dry state: ``lam0`` (checked) in regions whose
+    material has a swollen reference, 1 elsewhere (a film's mesh state is its stress-free state)."""
+    swelling = sorted(name for name, mat in materials.items() if mat.swollen_reference)
+    if lam0 is None:
+        if swelling:
+            raise ValueError(f"lam0 is required: regions {swelling} hold gels, whose mesh is a swollen state of "
+                             f"the dry gel; give lam0 as {_LAM0_FORMS}")
+        given = {}
+    elif isinstance(lam0, Mapping):
+        for name in lam0:
+            if name not in materials:
+                raise ValueError(f"lam0 names unknown region {name!r}; the mesh has regions {sorted(materials)}")
+            if name not in swelling:
+                raise ValueError(f"lam0 is given for region {name!r}, whose {type(materials[name]).__name__} is "
+                                 f"stress-free in the mesh state; give lam0 for the gel regions {swelling} only")
+        missing = [name for name in swelling if name not in lam0]
+        if missing:
+            raise ValueError(f"lam0 has no value for the gel regions {missing}; give one for every gel region")
+        given = dict(lam0)
+    else:
+        given = {name: lam0 for name in swelling}
+    stretches = {}
+    for name in materials:
+        value = check_reference_stretch(given.get(name, 1.0), what=f"lam0 of region {name!r}")
+        if isinstance(value, ngs.CoefficientFunction):
+            below = ngs.Integrate(ngs.IfPos(1.0 - value, 1.0, 0.0), mesh, definedon=mesh.Materials(name), order=6)
+            if below > 0:
+                raise ValueError(f"lam0 of region {name!r} is a field below 1 (drier than dry) somewhere in "
+                                 f"the region; it must be >= 1 everywhere")
+        stretches[name] = value
+    return stretches
 
 
 def quadrature_rules(order: int) -> dict:
@@ -80,13 +120,26 @@ class GelBody(BuiltOnDemand):
     """Mesh, kinematics, materials per region and the displacement space: what equilibrium and
     transient problems share. Boundary conditions must be declared before the space is built
     (the first access to ``space``). ``quadrature_order`` pins the rule of the energy
-    integrals (NGSolve's default otherwise, which depends on the space and the integrand)."""
+    integrals (NGSolve's default otherwise, which depends on the space and the integrand).
+
+    ``lam0``: the stretch of the mesh from the dry state in the gel regions, each stress-free
+    where it is in equilibrium with its own free swelling: one number for all of them, a field
+    (a CoefficientFunction, e.g. a graded reference), or a mapping region -> number or field,
+    e.g. a bilayer whose layers have different cross-link densities, each referenced at its own
+    free swelling at a common ``mu0``::
+
+        lam0={"top": soft.lam_free(mu0), "bottom": stiff.lam_free(mu0)}
+
+    Kinematics act on the deformation from each region's reference (plane strain holds each
+    region's out-of-plane stretch at its ``lam0``). Needed only with gel regions. ``lam0 = 1``
+    is the dry body (e.g. a layer bonded dry): the undeformed mesh is then outside the
+    admissible set ``J > 1`` (the mixing pressure is ``-inf`` at ``J = 1``), so set a swollen
+    starting displacement before the first solve."""
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
-                 materials: Mapping[str, Material] | Material, lam0: float, order: int = 2,
+                 materials: Mapping[str, Material] | Material, lam0: Lam0 | None = None, order: int = 2,
                  quadrature_order: int | None = None):
         kinematics.check_mesh(mesh)
-        _check_lam0(lam0)
         if not isinstance(order, int) or order < 1:
             raise ValueError(f"order must be an integer >= 1, got {order!r}")
         regions = set(mesh.GetMaterials())
@@ -101,7 +154,12 @@ class GelBody(BuiltOnDemand):
         self.mesh = mesh
         self.kinematics = kinematics
         self.materials = dict(materials)
-        self.lam0 = float(lam0)
+        self._lam0 = _reference_stretches(mesh, self.materials, lam0)
+        values = list(self._lam0.values())
+        uniform = all(isinstance(v, float) and v == values[0] for v in values)
+        # lam0 over the whole mesh, for expressions not split by region (1 in films); a number where
+        # every region shares it, so the forms stay those of a single reference
+        self.lam0_field: float | ngs.CoefficientFunction = values[0] if uniform else mesh.MaterialCF(self._lam0)
         self.order = order
         self.quadrature_order = quadrature_order
         self._fixed: dict[int, list[str]] = {i: [] for i in range(len(kinematics.components))}
@@ -244,6 +302,38 @@ class GelBody(BuiltOnDemand):
             axial = self.parts(self.gridfunction)[1]
         return self.kinematics.deformation_gradient(u, axial=axial)
 
+    def evaluate(self, field: ngs.CoefficientFunction, point) -> float | np.ndarray:
+        """``field`` (a GridFunction, its gradient, a stress, ...) at the reference ``point``
+        (``mesh.dim`` coordinates): a float for a scalar field, else a numpy array of the field's
+        shape (``(n,)``, ``(n, m)``), whatever the kinematics (NGSolve itself gives a float or a
+        flat tuple: a 1D gradient is a 1-tuple, a 3x3 stress 9 numbers)."""
+        coordinates = np.asarray(point, dtype=float)
+        if coordinates.shape != (self.mesh.dim,) or not np.all(np.isfinite(coordinates)):
+            raise ValueError(f"point must be {self.mesh.dim} finite coordinates on this {self.mesh.dim}D mesh, "
+                             f"got {point!r}")
+        where = self.mesh(*coordinates)
+        if where.nr < 0:
+            raise ValueError(f"point {tuple(coordinates)} lies outside the mesh")
+        value = field(where)
+        return float(np.squeeze(value)) if field.dim == 1 else np.reshape(value, tuple(field.dims))
+
+    @property
+    def lam0(self) -> float:
+        """The reference stretch shared by every gel region (1 without gels); ValueError where it
+        differs between regions or is a field (use ``lam0_of(region)`` or ``lam0_field``)."""
+        values = [v for name, v in self._lam0.items() if self.materials[name].swollen_reference] or [1.0]
+        if not all(isinstance(v, float) and v == values[0] for v in values):
+            raise ValueError("lam0 differs between the gel regions or is a field here; use lam0_of(region) "
+                             "or lam0_field")
+        return values[0]
+
+    def lam0_of(self, region: str) -> float | ngs.CoefficientFunction:
+        """Stretch of the mesh from the dry state in ``region`` (1 where the material is not a gel)."""
+        try:
+            return self._lam0[region]
+        except KeyError:
+            raise ValueError(f"unknown region {region!r}; the mesh has regions {sorted(self._lam0)}") from None
+
     def region_sum(self, integrand_of) -> ngs.SumOfIntegrals:
         """``sum_region integrand_of(material, region) * weight * dx(region)``."""
         w = self.kinematics.volume_weight()
@@ -257,13 +347,13 @@ class GelBody(BuiltOnDemand):
     def cauchy_stress(self, u, mu, axial=None) -> ngs.CoefficientFunction:
         """Cauchy stress (3x3) of the material in each region."""
         Fp = self.deformation_gradient(u, axial)
-        values = {name: mat.reference_cauchy(Fp, mu, self.lam0) for name, mat in self.materials.items()}
+        values = {name: mat.reference_cauchy(Fp, mu, self.lam0_of(name)) for name, mat in self.materials.items()}
         return self.mesh.MaterialCF(values)
 
     def margin_indicator(self, u, axial=None) -> ngs.CoefficientFunction:
         """1 where the state is outside a material's admissible set, 0 inside."""
         Fp = self.deformation_gradient(u, axial)
-        values = {name: ngs.IfPos(mat.margin(Fp, self.lam0), 0.0, 1.0) for name, mat in self.materials.items()}
+        values = {name: ngs.IfPos(mat.margin(Fp, self.lam0_of(name)), 0.0, 1.0) for name, mat in self.materials.items()}
         return self.mesh.MaterialCF(values)
 
 
@@ -281,8 +371,9 @@ class EquilibriumProblem(GelBody):
     """
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
-                 materials: Mapping[str, Material] | Material, lam0: float, mu=0.0, order: int = 2,
-                 inverse: str = "sparsecholesky", quadrature_order: int | None = None):
+                 materials: Mapping[str, Material] | Material, lam0: Lam0 | None = None, mu=0.0, order: int = 2,
+                 inverse: str = "auto", quadrature_order: int | None = None):
+        # inverse: ngsgel.newton.LinearSolver's ("auto": MKL PARDISO where installed, else sparsecholesky)
         super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order,
                          quadrature_order=quadrature_order)
         if isinstance(mu, Real):
@@ -314,7 +405,7 @@ class EquilibriumProblem(GelBody):
         V = self.space
         u, axial = self.parts(V.TrialFunction())
         Fp = self.deformation_gradient(u, axial)
-        energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, self.mu, self.lam0))
+        energy = self.region_sum(lambda mat, name: mat.reference_energy(Fp, self.mu, self.lam0_of(name)))
         energy = self.with_surface_energies(energy, u)
         w = self.kinematics.volume_weight()
         for boundary, t in self._tractions:
@@ -397,15 +488,17 @@ class EquilibriumProblem(GelBody):
         """Newton's default absolute floor ``atol``: the round-off level of the free residual at
         the current loads, ``100 eps E_s N^(1/d - 1/2) / V^(1/d)``. ``E_s``: the energy scale, the
         integral over the body of ``|W'(I)| + |W'(2I)|`` (each region's energy density at the
-        reference and at twice its size, at the current ``mu``); ``N`` the free dofs, ``V`` the
+        reference, where admissible, and at twice its size, at the current ``mu``); ``N`` the free dofs, ``V`` the
         body's measure, ``d`` the mesh dimension, so ``E_s / (N h)`` with ``h = (V/N)^(1/d)`` is a
         dof's force scale and ``sqrt(N)`` sums the rounding of ``N`` of them. Below it a relative
         criterion asks for digits the residual does not have (a tiny load step next to a critical
         state crawled for 30 iterations at 3e-16 towards 1e-27); its cost is one integral over
         the mesh per solve."""
         self.form
-        sizes = {name: ngs.Norm(mat.reference_energy(ngs.Id(3), self.mu, self.lam0))
-                 + ngs.Norm(mat.reference_energy(2 * ngs.Id(3), self.mu, self.lam0))
+        # a dry reference (lam0 = 1) is not admissible, its W' is 0 * log(0): left out
+        sizes = {name: ngs.IfPos(mat.margin(ngs.Id(3), self.lam0_of(name)),
+                                 ngs.Norm(mat.reference_energy(ngs.Id(3), self.mu, self.lam0_of(name))), 0.0)
+                 + ngs.Norm(mat.reference_energy(2 * ngs.Id(3), self.mu, self.lam0_of(name)))
                  for name, mat in self.materials.items()}
         energy = self.integrate(self.mesh.MaterialCF(sizes))
         free, d = int(self.free_mask.sum()), self.mesh.dim
@@ -436,10 +529,7 @@ class EquilibriumProblem(GelBody):
 
     def volume_ratio(self) -> ngs.CoefficientFunction:
         """``J`` relative to the dry state in gel regions (to the bonded state in films)."""
-        det = ngs.Det(self.deformation_gradient(self.displacement))
-        values = {name: (self.lam0**3 if isinstance(mat, FloryRehnerGel) else 1.0) * det
-                  for name, mat in self.materials.items()}
-        return self.mesh.MaterialCF(values)
+        return self.lam0_field**3 * ngs.Det(self.deformation_gradient(self.displacement))
 
     def integrate(self, cf, *, region: str | None = None) -> float:
         """Integral over the reference body (with the kinematics' volume weight)."""

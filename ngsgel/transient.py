@@ -29,9 +29,12 @@ every step yields a ``StepRecord`` with the solvent balance.
 from __future__ import annotations
 
 import math
+import os
+import pickle
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from numbers import Real
+from pathlib import Path
 
 import numpy as np
 import ngsolve as ngs
@@ -40,10 +43,10 @@ from .kinematics import Kinematics
 from .materials import FloryRehnerGel, Material
 from .newton import LinearSolver, NewtonError, NewtonResult, newton
 from .output import report_progress
-from .problem import EquilibriumProblem, GelBody, quadrature_rules
+from .problem import EquilibriumProblem, GelBody, Lam0, quadrature_rules
 
 __all__ = ["TransientProblem", "StepRecord", "TransientResult", "TransientError", "march", "time_ramp",
-           "SCHEMES", "MAX_RATIO"]
+           "SCHEMES", "MAX_RATIO", "MarchCheckpoint"]
 
 
 def _as_cf(value) -> ngs.CoefficientFunction:
@@ -160,6 +163,42 @@ SCHEMES = ("bdf2", "backward_euler")
 
 
 @dataclass
+class MarchCheckpoint:
+    """What ``march`` needs to go on after its last accepted step as if it had not stopped: the
+    problem's state and step memory (``problem``: ``TransientProblem._checkpoint()``), the march's
+    start (``t0``, ``start``), its step control (``dt``: the next step it would try; ``history``:
+    the last accepted states, for the predictor and the error estimate; ``change``: the largest
+    change of each field so far), its records, and ``data``: what the caller's
+    ``checkpoint_data()`` returned after that step (e.g. a scene's rows and events).
+
+    ``save`` writes a pickle (atomically: a stopped run never leaves half a file); load only
+    checkpoints your own runs wrote."""
+
+    t0: float
+    t_end: float
+    start: np.ndarray
+    problem: tuple
+    history: list
+    change: np.ndarray
+    dt: float
+    records: list
+    data: object = None
+
+    def save(self, path: str | Path) -> None:
+        path = Path(path)
+        partial = path.with_name(path.name + ".partial")
+        partial.write_bytes(pickle.dumps(self))
+        os.replace(partial, path)
+
+    @classmethod
+    def load(cls, path: str | Path) -> MarchCheckpoint:
+        checkpoint = pickle.loads(Path(path).read_bytes())
+        if not isinstance(checkpoint, cls):
+            raise ValueError(f"{path} holds a {type(checkpoint).__name__}, not a march checkpoint")
+        return checkpoint
+
+
+@dataclass
 class _Step:
     """The last converged step, what BDF2 needs to take the next: its start state and length,
     its end (to tell whether the state was changed since) and its inflows (the balance)."""
@@ -183,9 +222,11 @@ class TransientProblem(GelBody):
     quasi-static state jumps; ``viscous_dissipation()`` gives its work in the last step.
 
     The initial state is the swollen reference at ``mu0`` (a number or a field); ``reset``
-    starts again from there or from an ``EquilibriumProblem``'s state (needed for graded gels,
-    whose uniformly scaled reference is not stress-free). ``t`` is the time ``Parameter`` at the
-    end of the step being solved: boundary values may depend on it.
+    starts again from there or from an ``EquilibriumProblem``'s state (needed for graded gels
+    with a uniform ``lam0``, which is not stress-free, and for a dry reference ``lam0 = 1``,
+    whose undeformed state is not admissible; ``lam0`` per region or as a field: ``GelBody``).
+    ``t`` is the time ``Parameter`` at the end of the step being solved: boundary values may
+    depend on it.
 
     Example::
 
@@ -197,7 +238,7 @@ class TransientProblem(GelBody):
     """
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
-                 materials: Mapping[str, Material] | Material, lam0: float, mu0,
+                 materials: Mapping[str, Material] | Material, lam0: Lam0 | None = None, mu0,
                  order: int = 2, mu_order: int | None = None, lumped: bool | None = None,
                  inverse: str = "umfpack", viscosity: float = 0.0):
         if kinematics.axial_unknown:
@@ -265,14 +306,14 @@ class TransientProblem(GelBody):
         """``w (J' - lam0^-3)``, solvent volume per mesh measure; guarded because the hoop
         stretch ``u_r / r`` is 0/0 on the axis, where the weight vanishes."""
         w = self.kinematics.volume_weight()
-        return ngs.IfPos(w, w * (ngs.Det(Fp) - self.lam0**-3), 0.0)
+        return ngs.IfPos(w, w * (ngs.Det(Fp) - self.lam0_field**-3), 0.0)
 
     def _apply(self, functional: ngs.LinearForm) -> float:
         functional.Assemble()
         return ngs.InnerProduct(functional.vec, self._one)
 
     def _build(self) -> None:
-        mesh, lam0, w = self.mesh, self.lam0, self.kinematics.volume_weight()
+        mesh, lam0, w = self.mesh, self.lam0_field, self.kinematics.volume_weight()
         wetted = "|".join(b for b, _ in self._wetted)
         self.mu_space = ngs.H1(mesh, order=self.mu_order, dirichlet=wetted)
         X = self.mixed_space = ngs.FESpace([self.space, self.mu_space])
@@ -291,7 +332,7 @@ class TransientProblem(GelBody):
         rules = quadrature_rules(self.quadrature_order)
         mass_rules = _vertex_rules() if self.lumped else rules
         Fp = self.deformation_gradient(u)
-        energy = self.region_sum(lambda mat, _: mat.reference_energy(Fp, mu, lam0))
+        energy = self.region_sum(lambda mat, name: mat.reference_energy(Fp, mu, self.lam0_of(name)))
         energy = self.with_surface_energies(energy, u)
         mobility = (ngs.Det(Fp) - lam0**-3) * ngs.Inv(Fp.trans * Fp)
         form = ngs.BilinearForm(X)
@@ -425,6 +466,10 @@ class TransientProblem(GelBody):
         if not dt > 0:
             raise ValueError(f"t_new must be after the current time {self.time}, got {t_new!r}")
         x = self.state
+        if self._previous is None and not self.admissible(x):  # a run's start, checked once
+            raise ValueError("the starting state is not admissible (J <= 1 somewhere); with a dry reference "
+                             "(lam0 = 1) the undeformed mesh is the dry state, at equilibrium with no finite mu0: "
+                             "start from a swollen equilibrium, reset(equilibrium=...)")
         previous = self._previous if scheme == "bdf2" and self._continues() else None
         if previous is None:
             a1, a2, b = 1.0, 0.0, 1.0
@@ -499,7 +544,7 @@ class TransientProblem(GelBody):
 
     def volume_ratio(self) -> ngs.CoefficientFunction:
         """``J`` relative to the dry state."""
-        return self.lam0**3 * ngs.Det(self.deformation_gradient(self.displacement))
+        return self.lam0_field**3 * ngs.Det(self.deformation_gradient(self.displacement))
 
     def stress(self) -> ngs.CoefficientFunction:
         return self.cauchy_stress(self.displacement, self.chemical_potential)
@@ -565,7 +610,9 @@ def march(problem: TransientProblem, t_end: float, *, output_times: Iterable[flo
           rtol: float | None = 1e-3, dt_start: float | None = None, dt_max: float | None = None,
           dt_min: float | None = None, dt_over_t: float | None = 0.5, grow: float = 1.5, cut: float = 0.25,
           easy_iterations: int = 4, on_step: Callable[[TransientProblem, StepRecord], None] | None = None,
-          newton_options: dict | None = None, progress: Callable[[str], None] | None = None) -> TransientResult:
+          newton_options: dict | None = None, progress: Callable[[str], None] | None = None,
+          checkpoint_file: str | Path | None = None, checkpoint_data: Callable[[], object] | None = None,
+          resume: MarchCheckpoint | None = None) -> TransientResult:
     """Advance ``problem`` from its current time to ``t_end``; steps end exactly on
     ``output_times`` and ``t_end`` (records marked ``output``).
 
@@ -597,8 +644,18 @@ def march(problem: TransientProblem, t_end: float, *, output_times: Iterable[flo
     ``progress``: called with one line at the start and one per accepted step
     (``progress(message)``; a ``ngsgel.output.Progress`` also gets the fraction of the march's
     time span done, for its percent done and time left).
+
+    ``checkpoint_file``: after every accepted step (and ``on_step``) a ``MarchCheckpoint`` is
+    written there, holding ``checkpoint_data()`` if given. ``resume`` (one of those, same problem
+    set-up and options): the march goes on from it as if it had not stopped, to the same steps
+    and states bit for bit; the returned records include the ones before the stop.
     """
-    t0 = problem.time
+    if resume is not None:
+        if resume.t_end != t_end:
+            raise ValueError(f"t_end={t_end!r} differs from the resumed march's {resume.t_end!r}")
+        problem.form
+        problem._rewind(resume.problem)
+    t0 = problem.time if resume is None else resume.t0
     span = t_end - t0
     if not span > 0:
         raise ValueError(f"t_end must be after the current time {t0}, got {t_end!r}")
@@ -622,7 +679,6 @@ def march(problem: TransientProblem, t_end: float, *, output_times: Iterable[flo
         raise ValueError(f"need 0 < dt_min <= dt_start <= dt_max, got {dt_min}, {dt_start}, {dt_max}")
     if not (grow >= 1 and 0 < cut < 1):
         raise ValueError(f"need grow >= 1 and 0 < cut < 1, got grow={grow}, cut={cut}")
-    report_progress(progress, f"start: t = {t0:.6g}, end {t_end:.6g}", fraction=0.0)
     problem.form
     fields = [(slice(r.start, r.stop), problem.free_mask[r.start:r.stop])
               for r in (problem.mixed_space.Range(i) for i in range(2))]
@@ -634,6 +690,14 @@ def march(problem: TransientProblem, t_end: float, *, output_times: Iterable[flo
     change = np.zeros(len(fields))  # the largest change of each field since t0
     result = TransientResult(completed=False)
     dt = dt_start
+    if resume is None:
+        report_progress(progress, f"start: t = {t0:.6g}, end {t_end:.6g}", fraction=0.0)
+    else:
+        start, history, change, dt = resume.start, list(resume.history), resume.change, resume.dt
+        result.records = list(resume.records)
+        stops = [s for s in stops if s > problem.time]
+        report_progress(progress, f"resumed at t = {problem.time:.6g} (step {len(result.records)}), end {t_end:.6g}",
+                        fraction=(problem.time - t0) / span)
     cutbacks = rejected = 0
     while stops:
         stop = stops[0]
@@ -706,5 +770,9 @@ def march(problem: TransientProblem, t_end: float, *, output_times: Iterable[flo
             # a step shortened to land on an output time does not shrink the next one
             base = max(h, dt) if landing else h
             dt = base * grow if record.iterations <= easy_iterations else base
+        if checkpoint_file is not None:
+            MarchCheckpoint(t0=t0, t_end=t_end, start=start, problem=problem._checkpoint(), history=history,
+                            change=change, dt=dt, records=result.records,
+                            data=None if checkpoint_data is None else checkpoint_data()).save(checkpoint_file)
     result.completed = True
     return result

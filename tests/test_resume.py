@@ -1,6 +1,8 @@
 """Resumable runs: a path stopped at any point goes on from its checkpoint to the end an
 uninterrupted run reaches (``follow_path(resume=...)``, the scenes' ``--resume DIR``)."""
 
+import csv
+import dataclasses
 import json
 import math
 import os
@@ -13,12 +15,13 @@ import time
 import numpy as np
 import ngsolve as ngs
 import pytest
-from ngsolve.meshes import MakeStructured2DMesh
+from ngsolve.meshes import Make1DMesh, MakeStructured2DMesh
 
-from ngsgel import EquilibriumProblem, NeoHookeanFilm, PlaneStrain
+from ngsgel import EquilibriumProblem, FloryRehnerGel, NeoHookeanFilm, PlaneStrain, SphericalSymmetric
 from ngsgel.continuation import Checkpoint, ContinuationError, StabilityOptions, follow_path
 from ngsgel.output import History
-from ngsgel.scenes import graded_plate_shell, microlens
+from ngsgel.scenes import creases, gears, graded_plate_shell, microlens
+from ngsgel.transient import MarchCheckpoint, TransientProblem, march
 
 # With threads the assembly's and the solvers' sums come in a varying order: two runs of the
 # quick microlens differ by up to 5e-9 relative (in eigenvalues next to zero). One thread makes
@@ -143,6 +146,61 @@ def test_a_stalled_path_resumed_stalls_as_it_did(tmp_path):
     assert str(again.value) == str(stalled.value) and len(again.value.result.points) == 1
 
 
+def swelling_sphere():
+    """A ball (spherically symmetric line, 16 cells) immersed at once: mu -1 -> 0."""
+    gel = FloryRehnerGel(Nv=1e-2, chi=0.5)
+    prob = TransientProblem(Make1DMesh(16), kinematics=SphericalSymmetric(), materials=gel, lam0=gel.lam_free(-1.0),
+                            mu0=-1.0)
+    prob.fix("left")
+    prob.immerse("right", 0.0)
+    return prob
+
+
+@pytest.mark.parametrize("scheme", ["bdf2", "backward_euler"])
+def test_a_resumed_march_takes_the_same_steps_to_the_same_states(tmp_path, one_thread, scheme):
+    # error control (the default): the resumed march needs the step size it would take next and
+    # the last states behind its predictor and error estimate; killed in on_step three steps past
+    # the first output (BDF2 runs, the step after an output grows again), after a row and before its checkpoint, as a kill between the two
+    options = dict(output_times=[0.1, 1.0], scheme=scheme)
+    prob = swelling_sphere()
+    whole = march(prob, 3.0, **options)
+    kill_at = next(i for i, r in enumerate(whole.records) if r.time > 0.1) + 3
+    assert kill_at < whole.steps - 5
+    seen = []
+
+    def record(p, r):
+        seen.append(r.time)
+        if len(seen) == kill_at:
+            raise Killed
+
+    prob = swelling_sphere()
+    with pytest.raises(Killed):
+        march(prob, 3.0, on_step=record, checkpoint_file=tmp_path / "march.pkl",
+              checkpoint_data=lambda: list(seen), **options)
+    checkpoint = MarchCheckpoint.load(tmp_path / "march.pkl")
+    assert len(checkpoint.records) == kill_at - 1 and checkpoint.data == seen[:-1]
+
+    prob = swelling_sphere()  # as a new process would: nothing but the file
+    with pytest.raises(ValueError, match="t_end"):
+        march(prob, 2.0, resume=checkpoint, **options)
+    resumed = march(prob, 3.0, resume=checkpoint, **options)
+    assert same_records(resumed.records, whole.records)  # every step, its length, iterations and balance
+    assert np.array_equal(prob.save_state(), whole_state(whole, options))
+
+
+def same_records(first, second) -> bool:
+    """Equal step records (a step without an error estimate has NaN there, in both)."""
+    as_array = lambda records: np.array([dataclasses.astuple(r) for r in records], dtype=float)
+    return len(first) == len(second) and np.array_equal(as_array(first), as_array(second), equal_nan=True)
+
+
+def whole_state(whole, options) -> np.ndarray:
+    prob = swelling_sphere()
+    again = march(prob, 3.0, **options)
+    assert same_records(again.records, whole.records)  # one thread: a march repeats bit for bit
+    return prob.save_state()
+
+
 def scene(name: str, *args: str) -> list[str]:
     return [sys.executable, "-m", f"ngsgel.scenes.{name}", "--quiet", *args]
 
@@ -223,3 +281,72 @@ def test_a_killed_graded_plate_shell_run_resumed_ends_as_an_uninterrupted_one(tm
     assert_same_run(part, whole, ("path.csv", "path.jsonl", "events.json", "state_end.npz"))
     with pytest.raises(ValueError, match="has finished"):
         graded_plate_shell.main(["--resume", str(part)])
+
+
+@pytest.mark.slow
+def test_a_killed_creases_run_resumed_ends_as_an_uninterrupted_one(tmp_path, one_thread, monkeypatch):
+    # the quick crease cell with top_h = 0.05 to t = 0.005 (~100 steps under error control, no
+    # crease yet; two runs of ~10 s each on an idle machine, hence slow: the library's march
+    # resume is tested above), killed after a row and before its checkpoint, in process (as a
+    # kill would: the resumed run has nothing but the files)
+    args = ["--quick", "--quiet", "--t-end", "0.005", "--top-h", "0.05"]
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    creases.main(args + ["--out", str(whole)])
+    steps = rows_of(whole / "history.csv")
+    kill_at = steps // 2
+
+    class KilledAt(KilledHistory):
+        def __init__(self, path):
+            super().__init__(path, kill_at)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(creases, "History", KilledAt)
+        with pytest.raises(Killed):
+            creases.main(args + ["--out", str(part)])
+    assert rows_of(part / "history.csv") == kill_at and not (part / "summary.json").exists()
+    with pytest.raises(ValueError, match="goes on with the run's own options"):
+        creases.main(["--resume", str(part), "--equilibrium"])
+    creases.main(["--resume", str(part), "--quiet"])
+    # the same steps and states: every column of the history but the wall-clock one
+    histories = [[{k: v for k, v in row.items() if k != "wall"} for row in csv.DictReader(open(f / "history.csv"))]
+                 for f in (part, whole)]
+    assert len(histories[0]) == steps and histories[0] == histories[1]
+    summaries = [json.loads((f / "summary.json").read_text()) for f in (part, whole)]
+    for summary in summaries:
+        summary.pop("wall_seconds")
+    assert summaries[0] == summaries[1]
+    with pytest.raises(ValueError, match="has finished"):
+        creases.main(["--resume", str(part)])
+
+
+def rows_of(history) -> int:
+    return len(history.read_text().splitlines()) - 1
+
+
+@pytest.mark.slow
+def test_a_stopped_gears_sweep_resumed_ends_as_an_uninterrupted_one(tmp_path, one_thread, monkeypatch):
+    # the onset on two coarse meshes (~10 s each); stopped after the first case's row
+    args = ["--quiet", "--sweep", "convergence", "--resolutions", "64:2:0.5:1", "96:2:0.5:1"]
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    gears.main(args + ["--out", str(whole)])
+    add = gears.SweepTable.add
+
+    def add_then_stop(table, row):
+        add(table, row)
+        raise Killed
+
+    with monkeypatch.context() as patch:
+        patch.setattr(gears.SweepTable, "add", add_then_stop)
+        with pytest.raises(Killed):
+            gears.main(args + ["--out", str(part)])
+    assert rows_of(part / "convergence.csv") == 1
+    with pytest.raises(ValueError, match="goes on with the run's own options"):
+        gears.main(["--resume", str(part), "--resolutions", "48:2:0.5:1"])
+    gears.main(["--resume", str(part), "--quiet"])
+    tables = [json.loads((f / "convergence.json").read_text()) for f in (part, whole)]
+    for table in tables:
+        for row in table:
+            row.pop("seconds"), row.pop("cpu_seconds")
+    assert len(tables[0]) == 2 and tables[0] == tables[1]
+    with pytest.raises(ValueError, match="has finished"):
+        gears.main(["--resume", str(part)])

@@ -37,6 +37,7 @@ threshold (first contact) of the imperfect layer for a list of amplitudes. ``--s
 transient onset for several meshes, time-step limits and amplitudes with wall times.
 
     ngsgel run creases --out results/creases [--quick] [--equilibrium] [--study]
+    ngsgel run creases --resume results/creases   # a stopped transient run, on from its last step
 """
 
 from __future__ import annotations
@@ -53,14 +54,15 @@ import ngsolve as ngs
 from geometries.layers import layer_plane
 from ngsgel import EquilibriumProblem, FloryRehnerGel, NewtonError, PlaneStrain
 from ngsgel.contact import crossing_loops, plane_contact, surface_line
-from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
+from ngsgel.output import (History, Progress, RunDirectory, VTKSeries, command_options, quick_run, resume_arguments,
+                           scene_parser, silence_progress)
 from ngsgel.patterns import crease_positions, power_law_fit, sample_on_line
 from ngsgel.surface import surface_tension as surface_tension_density
 from ngsgel.stability import free_matrix, negative_count, spectrum
 from ngsgel.stepping import RampError, ramp
 from scipy.optimize import brentq
 from scipy.stats import spearmanr
-from ngsgel.transient import TransientError, TransientProblem, march, time_ramp
+from ngsgel.transient import MarchCheckpoint, TransientError, TransientProblem, march, time_ramp
 
 BIOT_RATIO = 3.383  # Biot (1963): incompressible neo-Hookean half-space, plane strain, lam2/lam1 at wrinkling
 CREASE_RATIO = 2.4  # Hong, Zhao & Suo (2009): energetic crease threshold, lam2/lam1 (strain 0.35)
@@ -365,34 +367,50 @@ def build_transient(setup: Setup) -> TransientProblem:
 
 
 def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: float | None = None,
-                  after_onset: float = 1.5, pictures: int = 6, vtk: bool = True, quiet: bool = False) -> dict:
-    """March until ``t_end`` or ``after_onset`` times the crease onset time, whichever is first."""
+                  after_onset: float = 1.5, pictures: int = 6, vtk: bool = True, quiet: bool = False,
+                  options: dict | None = None, resume: bool = False) -> dict:
+    """March until ``t_end`` or ``after_onset`` times the crease onset time, whichever is first.
+    With ``out``, every step rewrites ``checkpoint.pkl`` (``ngsgel.transient.MarchCheckpoint``
+    with the rows and events so far); ``resume``: the run in ``out`` goes on from it to the end
+    an uninterrupted run reaches (``wall`` column and wall time aside). ``options``: the command
+    line, kept in ``params.json`` (``ngsgel.output.resume_arguments``)."""
     setup.check()
     if not t_end > setup.ramp:
         raise ValueError(f"t_end must be > ramp = {setup.ramp:g}, got {t_end!r}")
     if not after_onset >= 1:
         raise ValueError(f"after_onset must be >= 1, got {after_onset!r}")
+    if resume and not out:
+        raise ValueError("resume needs the run's folder (out)")
     run_dir = RunDirectory(out, params={**setup.__dict__, "lam0": setup.lam0, "t_end": t_end, "dt_max": dt_max,
-                                        "after_onset": after_onset,
-                                        "ratio_final_equilibrium": setup.ratio(0.0)}) if out else None
+                                        "after_onset": after_onset, "ratio_final_equilibrium": setup.ratio(0.0),
+                                        "options": options}, resume=resume) if out else None
+    checkpoint_file = run_dir.file("checkpoint.pkl") if run_dir else None
+    if resume and not checkpoint_file.exists():
+        raise ValueError(f"no checkpoint {checkpoint_file}: the run stopped before its first step (start it again, "
+                         f"without resuming)")
+    checkpoint = MarchCheckpoint.load(checkpoint_file) if resume else None
     progress = Progress("creases") if not quiet else (lambda msg: None)
     wall0 = time.perf_counter()
     prob = build_transient(setup)
     prob.form
     ndof = prob.mixed_space.ndof
-    series = VTKSeries(prob.mesh, prob.fields(), run_dir.file("creases")) if (run_dir and vtk) else None
-    if series:
+    series = VTKSeries(prob.mesh, prob.fields(), run_dir.series("creases")) if (run_dir and vtk) else None
+    if series and not resume:
         series.write(0.0)
     outputs = list(np.geomspace(max(10 * setup.ramp, 1e-4), t_end, 12)[:-1])
     rows, profiles = [], {}
     state = {"onset": None, "stop_at": t_end, "max_penetration": 0.0, "max_crossings": 0, "dissipation": 0.0,
              "interior": None, "sharpening": None, "max_overlap": 0.0, "max_self_contacts": 0,
              "max_tip_lobe_width": 0.0, "max_tip_lobe_area": 0.0}
+    if checkpoint is not None:
+        rows, profiles, state = checkpoint.data
     # A mesh-converging onset measure (docs/creases.md): the time at which the groove bottom has
     # sharpened to a tip radius of l/4 (l = gamma/G the elastocapillary length), interpolated
     # linearly in the radius between steps; the contact time itself drifts with the tip mesh.
     sharp_radius = setup.surface_tension * setup.thickness / 4
     history = History(run_dir.file("history.csv")) if run_dir else None
+    for row in rows if history else ():  # a resumed run's history: the rows up to its checkpoint
+        history.append(row)
 
     def on_step(p, rec) -> None:
         surf = surface_state(p, setup)
@@ -475,7 +493,8 @@ def run_transient(setup: Setup, out: str | None, *, t_end: float = 0.2, dt_max: 
             # dt_min: snaps (early skin wrinkles, crease closing) are carried by the stabiliser with
             # steps down to ~1e-9; 1e-4 ramp stopped the top_h = 0.01 run with surface energy
             march(prob, t_end, dt_start=setup.ramp / 10, dt_max=dt_max, dt_min=setup.ramp * 1e-7,
-                  output_times=outputs, on_step=on_step)
+                  output_times=outputs, on_step=on_step, checkpoint_file=checkpoint_file,
+                  checkpoint_data=lambda: (rows, profiles, state), resume=checkpoint)
         except _Stop:
             if state["interior"] is not None:
                 message = ("stopped: faces crossed off the mirror lines " +
@@ -864,7 +883,9 @@ def main(argv=None) -> dict:
                         help="end time (L^2/D; the run stops earlier, after the onset)")
     parser.add_argument("--dt-max", type=float, default=None,
                         help="largest time step (L^2/D; default: none, steps grow with the time elapsed)")
-    args = parser.parse_args(argv)
+    parser.add_argument("--resume", default=None, metavar="DIR",
+                        help="go on with the stopped transient run in DIR from its last checkpoint, with its options (default: none, a new run)")
+    args = resume_arguments(parser, argv)
     with silence_progress(args.quiet):
         return _main(args)
 
@@ -897,7 +918,8 @@ def _main(args) -> dict:
         rows = run_study(base, args.out, cases=cases, t_end=args.t_end, dt_max=args.dt_max)
         return {"study": rows}
     summary = run_transient(setup, args.out, t_end=args.t_end, dt_max=args.dt_max,
-                            after_onset=args.after_onset or (1.2 if quick else 1.5))
+                            after_onset=args.after_onset or (1.2 if quick else 1.5), options=command_options(args),
+                            resume=args.resume is not None)
     onset = summary["onset"]
     print("no crease onset before t_end" if onset is None else
           f"crease onset at t = {onset['time']:.4e}: swollen depth {onset['swollen_depth']:.4f} (reference), "

@@ -25,9 +25,8 @@ import math
 import time
 
 import numpy as np
-from ngsolve.meshes import Make1DMesh
 
-from geometries import ball_octant, ball_section
+from geometries import ball_octant, ball_section, sphere_radial
 from ngsgel import Axisymmetric, FloryRehnerGel, Solid3D, SphericalSymmetric
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 from ngsgel.transient import TransientProblem, TransientResult, march, time_ramp
@@ -42,9 +41,9 @@ def build(model: str, *, h: float, gel: FloryRehnerGel, mu0: float, mu_ext: floa
     """The ball swelling problem in ``model`` on a mesh of size ``h`` (order 2 / 1)."""
     common = dict(materials=gel, lam0=gel.lam_free(mu0), mu0=mu0)
     if model == "line":
-        prob = TransientProblem(Make1DMesh(round(1 / h)), kinematics=SphericalSymmetric(), **common)
-        prob.fix("left")  # the centre
-        surface = "right"
+        prob = TransientProblem(sphere_radial(outer=1.0, maxh=h).mesh, kinematics=SphericalSymmetric(), **common)
+        prob.fix("inner")  # the centre
+        surface = "outer"
     elif model == "axisymmetric":
         prob = TransientProblem(ball_section(maxh=h).mesh, kinematics=Axisymmetric(), **common)
         prob.fix("axis", "r")
