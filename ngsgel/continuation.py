@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import os
 import pickle
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,13 +34,13 @@ from typing import Literal
 import numpy as np
 import ngsolve as ngs
 
-from .newton import LinearSolver, NewtonError, NewtonResult, newton
+from .newton import LinearSolver, NewtonError, NewtonResult, Work, newton, total_work
 from .output import report_progress
 from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
                         spectrum, state_rate)
 from .stepping import RampError, ramp
 
-__all__ = ["StabilityOptions", "Stabilization", "PathPoint", "Event", "Checkpoint", "Resumption", "PathResult",
+__all__ = ["StabilityOptions", "Stabilization", "PathPoint", "PathStep", "Event", "Checkpoint", "Resumption", "PathResult",
            "ContinuationError", "BorderedCorrector", "follow_path"]
 
 Method = Literal["natural", "arclength"]
@@ -225,11 +226,39 @@ class Resumption:
 
 
 @dataclass
+class PathStep:
+    """The work of one step of the path (``step`` as in ``PathPoint``; 0: the start's solve and
+    check), in order (``ngsgel.newton.Work``): a natural step's ``ramp`` records (predictor, failed
+    tries, Newton iterations and chord steps), an arclength step's "corrector" records (the bordered
+    corrector: wall time with its assemblies, factorisations and solves; its residuals are not
+    counted), "stability" records (each stability check of a converged state: assembly,
+    factorisation, eigen solve in ``total``) and the Newton records of the solves that locate a
+    change of the negative count or re-converge at the target (a branch switch's solves are not
+    recorded)."""
+
+    step: int
+    parameter: float
+    records: list[Work] = field(default_factory=list)
+
+    @property
+    def work(self) -> Work:
+        return total_work(self.records)
+
+    def part(self, kind: str) -> Work:
+        """The sum of this step's records of one ``kind`` (e.g. "stability")."""
+        return total_work(r for r in self.records if r.kind == kind)
+
+
+@dataclass
 class PathResult:
+    """``steps``: the work of each step taken by this call (``PathStep``; a resumed run's
+    earlier steps are not among them)."""
+
     points: list[PathPoint]
     events: list[Event]
     stop_reason: str
     checkpoint: Checkpoint
+    steps: list[PathStep] = field(default_factory=list)
 
     def column(self, name: str) -> np.ndarray:
         """``parameter``, ``energy``, ``negative``, ``iterations``, ``dissipated_fraction`` or a
@@ -481,13 +510,44 @@ class _Driver:
         self.message = ""  # of the ContinuationError of a path that stalled
         self._pending: tuple[str, ...] = ()  # events of the next recorded point
         self._mass = free_matrix(mass_matrix(problem), problem.free_mask) if stability else None
+        self.step_work: list[PathStep] = []
+        self._work: list[Work] = []  # of the step under way
+        solver = getattr(problem, "_solver", None)
+        # a backend with the inertia: the stability check factorises with the problem's own solver,
+        # and that factorisation at the converged state also starts the next solve (``chord_start``)
+        self.solver = solver if stability and isinstance(solver, LinearSolver) and solver.inverse == "pardiso" else None
 
     # ------------------------------------------------------------------ stability
     def spectrum(self) -> Spectrum | None:
         if self.stability is None:
             return None
-        K = free_matrix(self.problem.tangent(self.problem.state), self.problem.free_mask)
-        return spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass, past_negative=True)
+        clock = time.perf_counter
+        started, work = clock(), Work("stability")
+        matrix = self.problem.tangent(self.problem.state)
+        work.assembly, work.assemblies = clock() - started, 1
+        ldlt = None
+        if self.solver is not None:
+            t = clock()
+            self.solver.factor(matrix)
+            work.factorisation, work.factorisations = clock() - t, 1
+            ldlt = self.solver.ldlt  # None where pivots were perturbed: SuperLU counts instead
+        K = free_matrix(matrix, self.problem.free_mask)
+        found = spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass, past_negative=True,
+                         factorisation=ldlt)
+        work.total = clock() - started
+        self._work.append(work)
+        return found
+
+    def add_work(self, records) -> None:
+        """Work of the step under way (Newton records of a solve)."""
+        self._work.extend(records)
+
+    def close_step(self, parameter: float, step: int | None = None) -> PathStep:
+        """The step under way (``step``, default ``steps``) has ended: its work becomes a ``PathStep``."""
+        step = PathStep(step=self.steps if step is None else step, parameter=parameter, records=self._work)
+        self.step_work.append(step)
+        self._work = []
+        return step
 
     def converged(self, iterations: int = 0) -> _Converged:
         return _Converged(self.parameter.Get(), self.problem.save_state(), self.spectrum(), iterations)
@@ -718,8 +778,10 @@ class _Driver:
     def finish(self, method: str, current: _Converged, previous: _Converged | None, step: float,
                scale: float | None) -> PathResult:
         """The ended path (``stop_reason`` set), its checkpoint kept: resuming it returns it."""
+        if self._work:  # the failed step that ended the path
+            self.close_step(self.parameter.Get(), self.steps + 1)
         return PathResult(self.points, self.events, self.stop_reason,
-                          self.keep(method, current, previous, step, scale))
+                          self.keep(method, current, previous, step, scale), self.step_work)
 
 
 def _with_modes(problem, events: list[Event]) -> list[Event]:
@@ -823,17 +885,21 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     if start is not None and start.previous_state is not None:
         previous = _Converged(start.previous_parameter, start.previous_state, None)
     if resume is None:
+        driver.add_work(first.records)
         current = driver.converged(first.iterations)
         driver.record(current, dissipated=0.0 if stabilization else None)
+        driver.close_step(current.parameter)
         driver.keep(method, current, previous, step, restart.scale if restart else None)
     else:
         driver.take_up(resume)
         if resume.stop_reason:
-            result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events))
+            result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events),
+                                driver.step_work)
             if resume.stop_reason == "min_step":
                 raise ContinuationError(resume.message, result)
             return result
         current = driver.converged(resume.points[-1].iterations)  # its spectrum again: the next step's check
+        driver.close_step(current.parameter)
     if method == "natural":
         return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
                         stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
@@ -841,6 +907,14 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
                       direction=direction, scale=start.scale if start else None, grow=grow,
                       easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
+
+
+def _corrector_work(result: NewtonResult, started: float, kind: str) -> Work:
+    """A bordered-corrector solve as one record: its wall time, and per iteration one assembly,
+    one factorisation and two solves (its residual evaluations are not counted)."""
+    n = result.iterations
+    return Work(kind, total=time.perf_counter() - started, assemblies=n, factorisations=n, solves=2 * n,
+                residual_norm=result.residuals[-1] if result.residuals else math.nan)
 
 
 def _corrector(problem, parameter: ngs.Parameter, newton_options: dict) -> BorderedCorrector:
@@ -861,7 +935,7 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
             driver._goto(a)
             problem.restore_state(a.state + s * (b.state - a.state))
             parameter.Set(a.parameter + s * (b.parameter - a.parameter))
-            problem.solve(**newton_options)
+            driver.add_work(problem.solve(**newton_options).records)
         return solve_at
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
@@ -872,6 +946,12 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
 
     def on_step(lam: float, newton_result: NewtonResult) -> bool:
         driver.steps += 1
+        try:
+            return step_taken(newton_result)
+        finally:
+            driver.close_step(lam)
+
+    def step_taken(newton_result: NewtonResult) -> bool:
         a = state["current"]
         b = driver.converged(newton_result.iterations)
         located, switched = driver.check(a, b, segment_from(a, b), switch)
@@ -893,16 +973,30 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
                     None)
         return False
 
+    # the stability check's factorisation at the converged state starts the next solve
+    step_options = dict(newton_options, chord_start=True) if driver.solver is not None and system is problem \
+        else newton_options
+
+    def with_ramp_work(taken: int, ramp_result) -> None:
+        """Put each ramp step's own records (predictor, failed tries, Newton) first in its path step."""
+        for path_step, ramp_step in zip(driver.step_work[taken:], ramp_result.records):
+            path_step.records[:0] = ramp_step.records
+        if ramp_result.failed_work:  # the tries of a step that did not converge
+            driver.add_work(ramp_result.failed_work)
+
     h = step
     while True:
+        taken = len(driver.step_work)
         try:
             result = ramp(system, parameter, target, step=h, min_step=min_step, max_step=max_step, grow=grow,
-                          easy_iterations=easy, on_step=on_step, newton_options=newton_options,
+                          easy_iterations=easy, on_step=on_step, newton_options=step_options,
                           tangent_start=stabilization is None,  # damping's tangent needs a step
                           max_correction=max_correction)
         except RampError as err:
+            with_ramp_work(taken, err.result)
             driver.stop_reason, driver.message = "min_step", str(err)
             raise ContinuationError(str(err), driver.finish("natural", state["current"], None, h, None)) from err
+        with_ramp_work(taken, result)
         if len(result.values) >= 2:
             h = abs(result.values[-1] - result.values[-2])
         if not result.stopped:
@@ -933,8 +1027,15 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
     def advance(a: _Converged, d: tuple[np.ndarray, float], ds: float) -> NewtonResult:
         guess = a.state.copy()
         guess[free] += ds * d[0]
-        return corrector.solve((guess, a.parameter + ds * d[1]), (a.state[free], a.parameter),
-                               (d[0] / scale**2, d[1]), ds)
+        started = time.perf_counter()
+        try:
+            result = corrector.solve((guess, a.parameter + ds * d[1]), (a.state[free], a.parameter),
+                                     (d[0] / scale**2, d[1]), ds)
+        except NewtonError as err:
+            driver.add_work([_corrector_work(err.result, started, "failed corrector")])
+            raise
+        driver.add_work([_corrector_work(result, started, "corrector")])
+        return result
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
         return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
@@ -966,6 +1067,7 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
             problem.restore_state(current.state + t * (problem.save_state() - current.state))
             parameter.Set(target)
             newton_result = problem.solve(**newton_options)
+            driver.add_work(newton_result.records)
         b = driver.converged(newton_result.iterations)
         step_ds = ds if not landed else ds * t
 
@@ -979,10 +1081,12 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
             driver.record(point, events=(kind,))
         if switched:
             previous, current = located[-2][0], located[-1][0]
+            driver.close_step(current.parameter)
             driver.keep("arclength", current, previous, ds, scale)
             continue
         driver._goto(b)
         pp = driver.record(b)
+        driver.close_step(b.parameter)
         previous, current = current, b
         if landed:
             driver.stop_reason = "target"

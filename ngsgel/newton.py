@@ -17,6 +17,8 @@ from typing import Protocol
 import numpy as np
 import ngsolve as ngs
 
+from . import linalg
+
 __all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver", "Work", "total_work"]
 
 
@@ -111,25 +113,49 @@ class NewtonError(RuntimeError):
 
 class LinearSolver:
     """Sparse direct solve on the free dofs that keeps its symbolic factorisation between calls
-    as long as the matrix object stays the same."""
+    as long as the matrix object stays the same.
+
+    ``inverse``: ``"auto"`` (MKL PARDISO if installed, else NGSolve's ``"sparsecholesky"``; the
+    choice and its reason are logged once per process by the ``ngsgel.linalg`` logger),
+    ``"pardiso"`` (``ngsgel.linalg.PardisoLDLT``: the optional extra ``ngsgel[pardiso]``; its
+    factorisations also give the inertia of the free tangent) or any NGSolve inverse by name
+    (``"sparsecholesky"``, ``"umfpack"``, ...)."""
 
     def __init__(self, freedofs: ngs.BitArray, *, inverse: str = "sparsecholesky"):
         self.freedofs = freedofs
-        self.inverse = inverse
+        self.inverse = linalg.resolve_inverse(inverse)
         self._matrix = None
         self._inv = None
+        self._pardiso = None
 
     @property
     def current(self):
         """The last factorisation (None before the first ``factor``)."""
         return self._inv
 
+    @property
+    def inertia(self) -> tuple[int, int, int] | None:
+        """``(positive, negative, zero)`` eigenvalue counts of the free block of the last
+        factorised matrix, where the backend gives them (``"pardiso"``, pivots unperturbed);
+        else None."""
+        return self._inv.inertia if isinstance(self._inv, linalg.FreeDofInverse) else None
+
+    @property
+    def ldlt(self) -> linalg.PardisoLDLT | None:
+        """The last factorisation as a free-block LDL^T with a known inertia (``inertia`` not
+        None), for solves on free-dof vectors (``stability.spectrum``'s ``factorisation``)."""
+        return self._pardiso if self.inertia is not None else None
+
     def factor(self, matrix: ngs.BaseMatrix):
-        if self._inv is not None and matrix is self._matrix:
+        if self.inverse == "pardiso":
+            if self._pardiso is None:
+                self._pardiso = linalg.PardisoLDLT(np.array(list(self.freedofs), dtype=bool))
+            self._inv = linalg.FreeDofInverse(self._pardiso.factor(matrix))
+        elif self._inv is not None and matrix is self._matrix:
             self._inv.Update()
         else:
             self._inv = matrix.Inverse(self.freedofs, inverse=self.inverse)
-            self._matrix = matrix
+        self._matrix = matrix
         return self._inv
 
 
@@ -138,7 +164,7 @@ REFERENCES = ("max", "start")
 
 def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
            xtol: float = 1e-13, reference: str | float = "max", maxit: int = 30, min_step: float = 2.0**-12,
-           raise_on_failure: bool = True, reuse_factorisation: bool = False,
+           raise_on_failure: bool = True, reuse_factorisation: bool = False, chord_start: bool = False,
            chord_rate: float = 0.25, stall_window: int | None = None) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
 
@@ -173,7 +199,9 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     ``xtol``. Tried while the prescribed values are met, and not again after a rejected chord
     step until the next factorisation. ``iterations`` (and ``maxit``) count the full Newton
     iterations, ``chord_steps`` the kept chord steps; their number is bounded since each cuts the
-    residual by ``chord_rate``.
+    residual by ``chord_rate``. ``chord_start``: the same chord steps before the first full
+    iteration only (until one is rejected), for a caller that has just factorised the tangent at
+    the previous solution, e.g. for a stability check: the next solve starts with it.
 
     ``stall_window``: give up early when ``stall_window`` full iterations have not halved the
     free residual (Newton wandering where there is no solution nearby, e.g. a load step past a
@@ -258,7 +286,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     close(work, started, rnorm)
     r_max = r_start = rnorm
     result.residuals.append(rnorm)
-    chord_ok = reuse_factorisation and solver.current is not None
+    chord_ok = (reuse_factorisation or chord_start) and solver.current is not None
     # free residual norm after every full iteration since the prescribed values are met
     after_iteration = [] if mismatch.any() else [rnorm]
     for it in range(maxit + 1):

@@ -23,7 +23,7 @@ import numpy as np
 import ngsolve as ngs
 
 from .newton import LinearSolver
-from .stability import free_matrix, load_rate, mass_matrix, negative_count, spectrum
+from .stability import Spectrum, free_matrix, load_rate, mass_matrix, spectrum
 
 __all__ = ["SettleResult", "SettleError", "settle", "settle_past", "settle_after"]
 
@@ -135,7 +135,25 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
         K.AsVector().data += (1.0 / tau) * mass.AsVector()
         return K, solver.factor(K)
 
-    first = spectrum(problem, count=1, past_negative=True)  # with several negative: the lowest first
+    def current_spectrum(**options) -> Spectrum:
+        """``spectrum`` of the current tangent (count 1); with a backend that gives the inertia
+        (PARDISO) the solver's one factorisation serves the count and the eigen solve."""
+        K = current_tangent()
+        ldlt = None
+        if solver.inverse == "pardiso":
+            solver.factor(K)
+            ldlt = solver.ldlt
+        return spectrum(problem, count=1, K=free_matrix(K, free), M=free_mass_matrix(), factorisation=ldlt, **options)
+
+    free_mass = None
+
+    def free_mass_matrix():
+        nonlocal free_mass
+        if free_mass is None:
+            free_mass = free_matrix(mass, free)
+        return free_mass
+
+    first = current_spectrum(past_negative=True)  # with several negative: the lowest first
     omega = float(first.eigenvalues[0])
     tau0 = tau if tau is not None else (0.5 / abs(omega) if omega < 0 else 1.0 / omega)
     tau = tau0
@@ -146,7 +164,6 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     # them (measured: a column just past Euler kicked by 1e-5, energy changes of 1e-15).
     tau_cap = 0.5 / abs(omega) if first.negative else math.inf
     tau = min(tau, tau_cap)
-    free_mass = None
 
     target = x.CreateVector()
     problem.prescribed(target)
@@ -179,27 +196,20 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
     rnorm = free_norm(r)
     r_max = rnorm
 
-    def free_mass_matrix():
-        nonlocal free_mass
-        if free_mass is None:
-            free_mass = free_matrix(mass, free)
-        return free_mass
-
     def instability_cap() -> float:
         """``0.5 / |omega|`` of the current state's lowest eigenvalue if it is unstable, else inf;
         the tangent is kept for the next step."""
-        lowest = spectrum(problem, count=1, K=free_matrix(current_tangent(), free), M=free_mass_matrix(),
-                          past_negative=True)
+        lowest = current_spectrum(past_negative=True)
         return 0.5 / abs(float(lowest.eigenvalues[0])) if lowest.negative else math.inf
 
     def stable_end() -> SettleResult:
-        K = free_matrix(current_tangent(), free)  # often just assembled by ``instability_cap``
-        result.negative = negative_count(K)
+        lowest = current_spectrum()  # the tangent often just assembled by ``instability_cap``
+        result.negative = lowest.negative
         if result.negative:
             raise SettleError(f"the flow ended on an unstable equilibrium ({result.negative} negative eigenvalues): "
                               "perturb the start (e.g. along its lowest mode)", result)
         result.energy_end = energy
-        result.lowest_eigenvalue = float(spectrum(problem, count=1, K=K, M=free_mass_matrix()).eigenvalues[0])
+        result.lowest_eigenvalue = float(lowest.eigenvalues[0])
         return result
 
     while True:

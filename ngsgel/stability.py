@@ -113,7 +113,7 @@ def _volume(problem) -> float:
 
 
 def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spmatrix | None = None,
-             past_negative: bool = False) -> Spectrum:
+             past_negative: bool = False, factorisation=None) -> Spectrum:
     """Lowest ``count`` eigenvalues of the tangent at the current state (``K``, ``M``: free-dof
     matrices if already at hand) when it has at most ``count`` negative ones; with more, the
     ``count`` negative eigenvalues nearest zero (those that cross next), not the lowest.
@@ -125,25 +125,38 @@ def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spm
     far below zero (a state in the middle of a snap): the shift is moved down by factors of 4
     until the inertia of ``K - sigma M`` leaves at least that many eigenvalues between it and
     zero, and the set is found about it (or they are zeros of a singular tangent, within
-    ``1e-10`` of the matrix scale, whose sign is round-off: then the set stands)."""
+    ``1e-10`` of the matrix scale, whose sign is round-off: then the set stands).
+    ``factorisation``: an LDL^T of ``K`` with a known inertia (``ngsgel.linalg.PardisoLDLT``,
+    as ``LinearSolver.ldlt`` gives it): its negative count is taken and it is the shift-invert
+    operator about zero, so the eigen solve needs no factorisation of its own (an exactly
+    singular tangent perturbs PARDISO's pivots, and its inertia is then None: not usable here)."""
     free = problem.free_mask
     if K is None:
         K = free_matrix(problem.tangent(problem.state), free)
     if M is None:
         M = free_matrix(mass_matrix(problem), free)
     n = K.shape[0]
-    negative = negative_count(K)
+    if factorisation is not None and (factorisation.inertia is None or factorisation.n != n):
+        raise ValueError("factorisation must be an LDL^T of K with a known inertia")
+    negative = negative_count(K) if factorisation is None else factorisation.inertia[1]
     count = min(max(count, negative + 1) if past_negative else count, n - 1)
     wanted = min(negative, count)
-    # A shift a hair below zero keeps K - sigma M regular at an exactly critical state.
+    # A shift a hair below zero keeps K - sigma M regular at an exactly critical state (a
+    # factorisation with a known inertia is regular: its unperturbed pivots say so).
     scale = float(np.max(np.abs(K.diagonal() / M.diagonal())))
-    sigma = -1e-10 * scale
-    values, vectors = _nearest(K, M, count, sigma)
+    near = -1e-10 * scale
+    if factorisation is None:
+        sigma = near
+        values, vectors = _nearest(K, M, count, sigma)
+    else:
+        sigma = 0.0
+        values, vectors = _nearest(K, M, count, sigma, sla.LinearOperator((n, n), matvec=factorisation.solve,
+                                                                          dtype=float))
     if np.count_nonzero(values < 0) < wanted:
         # Walking the shift down by the returned values instead costs an eigen solve per step,
         # each slow with the near-zero eigenvalues clustered as seen from a far shift (a 49k-unknown
         # shell mid-snap: 13 solves in 15 minutes without reaching its negative pair).
-        near = sigma
+        sigma = near
         for _ in range(60):
             if negative_count(K - sigma * M) <= negative - wanted:
                 break
@@ -161,9 +174,11 @@ def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spm
     return Spectrum(eigenvalues=values, modes=vectors, negative=negative)
 
 
-def _nearest(K: sp.spmatrix, M: sp.spmatrix, count: int, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` eigenpairs of ``K phi = omega M phi`` nearest ``sigma``, ascending."""
-    values, vectors = sla.eigsh(K, k=count, M=M, sigma=sigma, which="LM", v0=arpack_start(K.shape[0]))
+def _nearest(K: sp.spmatrix, M: sp.spmatrix, count: int, sigma: float,
+             OPinv: sla.LinearOperator | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` eigenpairs of ``K phi = omega M phi`` nearest ``sigma``, ascending
+    (``OPinv``: ``(K - sigma M)^-1`` if at hand, else scipy factorises it)."""
+    values, vectors = sla.eigsh(K, k=count, M=M, sigma=sigma, which="LM", v0=arpack_start(K.shape[0]), OPinv=OPinv)
     order = np.argsort(values)
     return values[order], vectors[:, order]
 

@@ -18,6 +18,17 @@ threads, with the BLAS/LAPACK pools at their defaults and limited to one thread
 (``ngsgel.using_threads``), interleaved; ratios to 1 thread and to the default BLAS pools.
 ``--before DIR``: the default ramp with the ngsgel package in DIR (e.g. ``git archive`` of an
 older commit, unpacked) against this checkout's, in alternating fresh processes.
+
+``--backends`` (issue 35): the bonded block of issue 35 (1 x 1 x 0.2, tetrahedra of order 2,
+``Nv = 0.01``, ``chi = 0.5``, free at stretch 1.3, then 20 equal ``mu`` steps to the free state at
+1.6; ``--sizes`` picks the meshes, e.g. ``28k,53k``): per backend (NGSolve sparsecholesky on 1
+and 2 threads, umfpack, MKL PARDISO on 1 and 2 threads where installed) the time of the first
+factorisation (analysis), a numeric refactorisation and a solve of its tangent; CG with BDDC on
+the condensed tangent (setup once, two solves); the 20-step
+ramp with the defaults (``inverse="auto"``) and with sparsecholesky, per ramp and per Newton
+iteration; and a path with stability tracking against the same path without
+(``follow_path``, natural, 5 steps): the mean step time, tracked / untracked, from the
+``PathResult.steps`` work records.
 """
 
 from __future__ import annotations
@@ -34,7 +45,8 @@ import ngsolve as ngs
 from ngsolve.nonlinearsolvers import NewtonSolver
 
 from geometries import block
-from ngsgel import EquilibriumProblem, FloryRehnerGel, Solid3D, ramp
+from ngsgel import EquilibriumProblem, FloryRehnerGel, RampError, Solid3D, Work, ramp
+from ngsgel.newton import total_work
 from ngsgel.output import History, RunDirectory
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
@@ -262,6 +274,157 @@ def before_after(case_name: str, before: str, repeat: int) -> list[dict]:
              "iterations": iterations[k], "after_over_before": ratio} for k, v in times.items()]
 
 
+ISSUE35_SIZES = {"8k": 0.08, "28k": 0.053, "53k": 0.039, "108k": 0.038}  # netgen maxh: 7,923 / 28,584 / 52,962 / 108,426 unknowns
+ISSUE35_GEL = FloryRehnerGel(Nv=1e-2, chi=0.5)
+
+
+def issue35_problem(maxh: float, inverse: str) -> EquilibriumProblem:
+    mesh = block(lx=1, ly=1, lz=0.2, maxh=maxh).mesh
+    prob = EquilibriumProblem(mesh, kinematics=Solid3D(), materials=ISSUE35_GEL, lam0=1.3,
+                              mu=ISSUE35_GEL.mu_free(1.3), order=2, inverse=inverse)
+    prob.fix("bottom")
+    prob.form
+    return prob
+
+
+def issue35_mu_values(steps: int = 20) -> list[float]:
+    return list(np.linspace(ISSUE35_GEL.mu_free(1.3), ISSUE35_GEL.mu_free(1.6), steps + 1)[1:])
+
+
+def backend_times(maxh: float, inverse: str, threads: int) -> dict[str, float]:
+    """First factorisation, numeric refactorisation and solve of the tangent at the start."""
+    import threadpoolctl
+    from ngsgel.newton import LinearSolver
+
+    prob = issue35_problem(maxh, inverse)
+    ngs.SetNumThreads(threads)
+    with ngs.TaskManager(), threadpoolctl.threadpool_limits(threads, user_api="blas"):
+        K = prob.tangent(prob.state)
+        r = prob.state.CreateVector()
+        prob.residual(prob.state, r)
+        solver = LinearSolver(prob.space.FreeDofs(), inverse=inverse)
+        first, _ = timed(lambda: solver.factor(K))
+        refactor, inv = timed(lambda: solver.factor(K))
+        out = r.CreateVector()
+
+        def apply():
+            out.data = inv * r
+
+        solve, _ = timed(apply)
+    ngs.SetNumThreads(1)
+    return {"ndof": prob.space.ndof, "first_s": first, "refactor_s": refactor, "solve_s": solve}
+
+
+def bddc_times(maxh: float) -> dict[str, float]:
+    """CG with NGSolve's BDDC on the statically condensed tangent at the start, the preconditioner
+    set up once and used for two solves, against the direct solution (relative difference)."""
+    from ngsolve.krylovspace import CGSolver
+
+    prob = issue35_problem(maxh, "auto")
+    u = prob.space.TrialFunction()
+    Fp = prob.deformation_gradient(u)
+    energy = prob.region_sum(lambda mat, name: mat.reference_energy(Fp, prob.mu, prob.lam0_of(name)))
+    times = {"ndof": prob.space.ndof}
+    with ngs.TaskManager():
+        form = ngs.BilinearForm(prob.space, symmetric=True, condense=True)
+        form += ngs.Variation(energy)
+        bddc = ngs.Preconditioner(form, "bddc")
+        times["setup_s"], _ = timed(lambda: form.AssembleLinearization(prob.state))  # assembly + BDDC
+        rhs = prob.state.CreateVector()
+        prob.residual(prob.state, rhs)
+        rhs.FV().NumPy()[~prob.free_mask] = 0.0
+        x = rhs.CreateVector()
+
+        def solve():
+            cg = CGSolver(form.mat, bddc.mat, tol=1e-10, maxiter=2000)
+            condensed = rhs.CreateVector()
+            condensed.data = rhs + form.harmonic_extension_trans * rhs
+            x.data = cg * condensed
+            x.data += form.inner_solve * condensed
+            x.data += form.harmonic_extension * x
+            return cg.iterations
+
+        times["first_solve_s"], times["cg_iterations"] = timed(solve)
+        times["reused_solve_s"], _ = timed(solve)
+        direct = (prob.tangent(prob.state).Inverse(prob.space.FreeDofs(), inverse="umfpack") * rhs).Evaluate()
+    times["difference"] = float(np.linalg.norm(x.FV().NumPy() - direct.FV().NumPy())
+                                / np.linalg.norm(direct.FV().NumPy()))
+    return times
+
+
+def issue35_ramp(maxh: float, inverse: str, reuse: bool = False) -> dict[str, float]:
+    """The 20-step ramp (strict: no cut-back); a failed step ends it, and the times are those of
+    the steps before it (``steps`` says how many converged)."""
+    prob = issue35_problem(maxh, inverse)
+    try:
+        result = ramp(prob, prob.mu, values=issue35_mu_values(), strict=True,
+                      newton_options={"reuse_factorisation": reuse})
+    except RampError as err:
+        result = err.result
+        print(f"  FAILED: {err}", flush=True)
+    work = total_work(w for step in result.records for w in step.records)  # converged steps only
+    iterations = sum(n.iterations for n in result.newton)
+    return {"ndof": prob.space.ndof, "steps": result.steps, "ramp_s": work.total, "iterations": iterations,
+            "factorisations": work.factorisations, "s_per_iteration": work.total / iterations,
+            **{f"{part}_s": getattr(work, part) for part in Work.TIMES if part != "total"}}
+
+
+def issue35_path(maxh: float, tracked: bool, steps: int = 5) -> list:
+    from ngsgel.continuation import StabilityOptions, follow_path
+
+    prob = issue35_problem(maxh, "auto")
+    mu = issue35_mu_values(steps)
+    result = follow_path(prob, prob.mu, method="natural", step=mu[0] - ISSUE35_GEL.mu_free(1.3),
+                         max_step=mu[0] - ISSUE35_GEL.mu_free(1.3), grow=1.0, target=mu[-1],
+                         stability=StabilityOptions(eigenvalues=2) if tracked else None)
+    return result.steps[1:]  # the steps, not the start
+
+
+def issue35(sizes: list[str], run_dir, path_size: str) -> None:
+    from ngsgel.linalg import pardiso_available
+
+    backends = [("sparsecholesky", 1), ("sparsecholesky", 2), ("umfpack", 1)]
+    backends += [("pardiso", 1), ("pardiso", 2)] if pardiso_available() else []
+    ngs.SetNumThreads(1)
+    histories = {name: History(run_dir.file(f"{name}.csv")) for name in ("backends", "bddc", "ramps", "path_steps")}
+    for size in sizes:
+        maxh = ISSUE35_SIZES[size]
+        for inverse, threads in backends:
+            if inverse == "umfpack" and size != sizes[0]:
+                continue  # 5-6x sparsecholesky's time already at the first size
+            t = backend_times(maxh, inverse, threads)
+            print(f"{size} ({t['ndof']} unknowns) {inverse}, {threads} thread(s): first factorisation "
+                  f"{t['first_s']:.2f}s, refactorisation {t['refactor_s']:.2f}s, solve {t['solve_s']:.3f}s", flush=True)
+            histories["backends"].append({"size": size, "inverse": inverse, "threads": threads, **t})
+        t = bddc_times(maxh)
+        print(f"{size} ({t['ndof']} unknowns) CG + BDDC (condensed), 1 thread: assembly + BDDC setup {t['setup_s']:.2f}s, "
+              f"solve {t['first_solve_s']:.2f}s ({t['cg_iterations']} CG iterations to 1e-10), again with the same "
+              f"preconditioner {t['reused_solve_s']:.2f}s; relative difference to the direct solution "
+              f"{t['difference']:.1e}", flush=True)
+        histories["bddc"].append({"size": size, **t})
+        for inverse, reuse in (("auto", False), ("auto", True), ("sparsecholesky", False)):
+            if inverse == "sparsecholesky" and size != sizes[0]:
+                continue
+            t = issue35_ramp(maxh, inverse, reuse)
+            print(f"{size}: 20-step ramp, inverse={inverse!r}{', chord reuse' if reuse else ''}, 1 thread: "
+                  f"{t['steps']} steps converged in {t['ramp_s']:.1f}s, {t['iterations']} iterations, "
+                  f"{t['factorisations']} factorisations, {t['s_per_iteration']:.2f}s per iteration; in all: "
+                  + ", ".join(f"{part} {t[part + '_s']:.1f}s" for part in Work.TIMES if part != "total"), flush=True)
+            histories["ramps"].append({"size": size, "inverse": inverse, "reuse": reuse, "threads": 1, **t})
+    maxh = ISSUE35_SIZES[path_size]
+    steps = {tracked: issue35_path(maxh, tracked) for tracked in (False, True)}
+    mean = {k: statistics.mean(s.work.total for s in v) for k, v in steps.items()}
+    check = statistics.mean(s.part("stability").total for s in steps[True])
+    facs = {k: statistics.mean(s.work.factorisations for s in v) for k, v in steps.items()}
+    print(f"{path_size}: follow_path step, 1 thread: untracked {mean[False]:.2f}s ({facs[False]:.1f} factorisations), "
+          f"tracked {mean[True]:.2f}s ({facs[True]:.1f} factorisations, stability check {check:.2f}s): "
+          f"tracked / untracked {mean[True] / mean[False]:.2f}", flush=True)
+    histories["path_steps"].append({"size": path_size, "untracked_s": mean[False], "tracked_s": mean[True],
+                                    "stability_check_s": check, "ratio": mean[True] / mean[False]})
+    for history in histories.values():
+        history.close()
+
+
 def main(argv=None) -> None:
     global STEPS
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -276,6 +439,12 @@ def main(argv=None) -> None:
                         help="instead: the default ramp with the ngsgel package in DIR (e.g. an older commit's) "
                              "against this one, in fresh processes")
     parser.add_argument("--variants", default=None, help=f"--threads-study: a subset of {','.join(VARIANTS)}")
+    parser.add_argument("--backends", action="store_true",
+                        help="instead: issue 35's block, per backend factorisation/solve times, default ramp, "
+                             "tracked / untracked path step")
+    parser.add_argument("--sizes", default="28k,53k",
+                        help=f"--backends: meshes among {','.join(ISSUE35_SIZES)} ('' for the path only)")
+    parser.add_argument("--path-size", default="28k", help="--backends: the mesh of the tracked / untracked path")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)  # one --before run: prints its time
     args = parser.parse_args(argv)
     STEPS = args.steps or STEPS
@@ -288,6 +457,12 @@ def main(argv=None) -> None:
         print(json.dumps({"wall": wall, "iterations": its, "package": os.path.dirname(ngsgel.__file__)}))
         return
     chosen = {k: chosen[k] for k in args.cases.split(",")} if args.cases else cases(quick)
+    if args.backends:
+        import logging
+        logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")  # the backend choice
+        run_dir = RunDirectory(args.out, params={"sizes": args.sizes, "cores": os.cpu_count()})
+        issue35([size for size in args.sizes.split(",") if size], run_dir, args.path_size)
+        return
     if args.threads_study or args.before:
         run_dir = RunDirectory(args.out, params={"mu0": MU0, "mu1": MU1, "steps": STEPS, "repeat": args.repeat,
                                                  "cases": list(chosen), "before": args.before,

@@ -409,3 +409,26 @@ def test_a_natural_step_across_a_limit_point_is_a_jump_that_max_correction_refus
     for method, value in (("natural", 0.0), ("arclength", 2.0)):
         with pytest.raises(ValueError, match="max_correction"):
             follow_path(prob, load, method=method, step=0.01, target=0.05, max_correction=value)
+
+
+@pytest.mark.parametrize("method", ["natural", "arclength"])
+def test_every_step_reports_its_work_and_its_stability_check_apart(method):
+    # a stable column in displacement control (no events): one record of the start and of each
+    # step, the Newton iterations of a natural step as its points say, one stability check each
+    prob, load, _ = column(8, control="displacement", order=2)
+    kwargs = dict(method=method, step=0.2, max_step=0.2, max_steps=3, **({"target": 0.6} if method == "natural" else {}))
+    tracked = follow_path(prob, load, stability=StabilityOptions(eigenvalues=2), **kwargs)
+    prob, load, _ = column(8, control="displacement", order=2)
+    untracked = follow_path(prob, load, **kwargs)
+    for result, checks in ((tracked, 1), (untracked, 0)):
+        assert [s.step for s in result.steps] == [p.step for p in result.points] == [0, 1, 2, 3]
+        for point, step in zip(result.points, result.steps):
+            assert step.parameter == point.parameter
+            assert sum(r.kind == "stability" for r in step.records) == checks
+            assert step.part("stability").assemblies == checks
+            if method == "natural" or point.step == 0:
+                assert sum(r.kind == "newton" for r in step.records) == point.iterations
+            else:
+                assert step.part("corrector").factorisations == point.iterations
+            assert step.work.total == pytest.approx(sum(r.total for r in step.records))
+    assert any(r.kind == "predictor" for r in untracked.steps[1].records) == (method == "natural")
