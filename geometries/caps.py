@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 
+import ngsolve
 import numpy as np
 from netgen import occ
 
@@ -50,6 +51,7 @@ GEL = "gel"
 OUTER, INNER, APEX, APEX_INNER, BASE, AXIS = ("outer", "inner", "apex", "apex_inner",
                                               "base", "axis")
 SYM = "sym"
+APEX_RIM = "apex_rim"  # the circle between the apex patch and the rest (cap sectors only)
 SOLID_BOUNDARIES = (OUTER, APEX, INNER, APEX_INNER, BASE)
 SECTION_BOUNDARIES = SOLID_BOUNDARIES + (AXIS,)
 _LAYERS = "cap_wall"
@@ -216,4 +218,81 @@ def cap_midsurface(*, R: float = 1.0, H: float, maxh: float, t: float | None = N
                       model=SURFACE, exact_measure=area,
                       exact_volume=None if cap.t is None else area * cap.t,
                       params={**cap.params(), "half": half}, boundaries=(BASE, SYM) if half else (BASE,),
+                      regions=(GEL, APEX), region_measures={GEL: area - apex_area, APEX: apex_area})
+
+
+def cap_sector_midsurface(*, R: float = 1.0, H: float, angle: float, maxh: float, copies: int = 1,
+                          apex_radius: float | None = None, apex_maxh: float | None = None,
+                          curve_order: int = 2) -> MeshBundle:
+    """Sector ``0 <= theta <= copies * angle`` of the cap's mid-surface made of ``copies`` mirror
+    images of one Netgen mesh of the sector ``0 <= theta <= angle``
+    (``geometries.plates.mirrored_sector_mesh``), so that a state of a sector maps onto any
+    larger one (e.g. the whole cap, ``copies * angle = 2 pi``) node by node. Surface regions
+    ``"gel"`` and ``"apex"``; curves ``"apex_rim"`` (between them), boundary curves ``"base"`` and, unless the copies close the cap,
+    ``"sym"`` (theta = 0) and ``"sym_end"`` (theta = copies angle): mirror planes. The mesh has
+    no geometry to curve against: a deformation of order ``curve_order`` puts the elements on the
+    sphere and the base edges on the base circle (vertices stay where Netgen put them).
+    """
+    from .plates import SYM_END, mirrored_sector_mesh
+
+    cap = _Cap(R, H, None, apex_radius, apex_maxh, maxh, curve_order)
+    copies = require_int("copies", copies, 1)
+    if not 0 < angle <= math.pi:
+        raise ValueError(f"angle must be in (0, pi], got {angle!r}")
+    if copies * angle > 2 * math.pi + 1e-9:
+        raise ValueError(f"copies * angle must be at most 2 pi, got {copies} * {angle!r}")
+    closed = abs(copies * angle - 2 * math.pi) < 1e-9
+    if closed and copies % 2:
+        raise ValueError(f"a closed cap needs an even number of copies (mirror images alternate), got {copies}")
+    patches = []
+    for name, (th1, th2) in ((APEX, (0.0, cap.theta_a)), (GEL, (cap.theta_a, cap.theta0))):
+        arc = occ.ArcOfCircle(*(occ.Pnt(x, 0.0, z) for x, z in cap.arc(cap.r, th1, th2)))
+        arc.name = name
+        patch = arc.Revolve(occ.Axis((0, 0, 0), occ.Z), math.degrees(angle))
+        if name == APEX and cap.apex_maxh is not None:
+            patch.faces.maxh = cap.apex_maxh
+        patches.append(patch)
+    shape = occ.Glue(patches)
+    normal = (-math.sin(angle), math.cos(angle))
+    for edge in shape.edges:
+        c = edge.center
+        (_, _, z0), (_, _, z1) = edge.bounding_box
+        if abs(z0) < 1e-6 * cap.R and abs(z1) < 1e-6 * cap.R:
+            edge.name = BASE
+        elif abs(c.y) < 1e-9 * cap.R:
+            edge.name = SYM
+        elif abs(normal[0] * c.x + normal[1] * c.y) < 1e-9 * cap.R:
+            edge.name = SYM_END
+        else:
+            edge.name = APEX_RIM
+    base = generate(occ.OCCGeometry(shape), maxh=cap.maxh)
+    mesh = ngsolve.Mesh(mirrored_sector_mesh(base, angle=angle, copies=copies, outer=(BASE, APEX_RIM)))
+    if cap.curve_order > 1:
+        x = ngsolve.CF((ngsolve.x, ngsolve.y, ngsolve.z - cap.zc))
+        rho = ngsolve.sqrt(x * x)
+        deformation = ngsolve.GridFunction(ngsolve.VectorH1(mesh, order=cap.curve_order))
+        deformation.Set(x * (cap.r / rho - 1), definedon=mesh.Boundaries(".*"), dual=True)  # node by node: the
+        # same on a mirror seam inside the cap as on the sector's mirror edge
+        horizontal = ngsolve.sqrt(ngsolve.x**2 + ngsolve.y**2)
+        z_a = cap.zc + cap.r * math.cos(cap.theta_a)
+        circles = {BASE: (cap.R, 0.0), APEX_RIM: (cap.a, z_a)}  # horizontal radius, height
+        on_circle = ngsolve.GridFunction(deformation.space)
+        for name, (radius, height) in circles.items():  # (each Set overwrites the whole vector)
+            scale = radius / horizontal - 1
+            on_circle.Set(ngsolve.CF((ngsolve.x * scale, ngsolve.y * scale, height - ngsolve.z)), ngsolve.BBND,
+                          definedon=mesh.BBoundaries(name))
+            for element in mesh.Elements(ngsolve.BBND):
+                if element.mat == name:
+                    for dof in deformation.space.GetDofNrs(element):
+                        deformation.vec[dof] = on_circle.vec[dof]
+        for vertex in mesh.vertices:
+            for dof in deformation.space.GetDofNrs(vertex):
+                deformation.vec[dof] = 0.0
+        mesh.SetDeformation(deformation)
+    fraction = copies * angle / (2 * math.pi)
+    area = 2 * math.pi * cap.r * cap.H * fraction
+    apex_area = 2 * math.pi * cap.r**2 * (1 - math.cos(cap.theta_a)) * fraction
+    return MeshBundle(mesh=mesh, geometry=None, model=SURFACE, exact_measure=area, exact_volume=None,
+                      params={**cap.params(), "angle": angle, "copies": copies},
+                      boundaries=(BASE,) if closed else (BASE, SYM, SYM_END),
                       regions=(GEL, APEX), region_measures={GEL: area - apex_area, APEX: apex_area})

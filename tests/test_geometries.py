@@ -26,6 +26,7 @@ CURVED = {
                                          curve_order=k),
     "tube_solid": lambda k: g.tube_solid(Ri=1.0, Ro=1.2, Hz=0.4, tfo=0.05, maxh=0.3,
                                          film_layers=1, wall_layers=1, curve_order=k),
+    "sphere_octant": lambda k: g.sphere_octant(inner=0.5, outer=1.0, maxh=0.2, curve_order=k),
 }
 
 # --- every builder with coarse parameters --------------------------------------------
@@ -45,6 +46,11 @@ ALL = {
     "tube_solid_plain": lambda: g.tube_solid(Ri=1.0, Ro=1.1, Hz=0.5, maxh=0.3),
     "layer_plane": lambda: g.layer_plane(width=2.0, thickness=1.0, maxh=0.3, top_maxh=0.1),
     "layer_solid": lambda: g.layer_solid(width=1.0, depth=0.5, thickness=0.5, maxh=0.3),
+    # its straight edges' errors on the inner and outer arcs cancel in the area: its curved
+    # measures are tested on the arcs (test_sphere_arcs_converge_with_curve_order)
+    "sphere_section": lambda: g.sphere_section(inner=0.5, outer=1.0, maxh=0.1),
+    "sphere_radial": lambda: g.sphere_radial(inner=0.5, outer=1.5, maxh=0.3),
+    "ball_radial": lambda: g.sphere_radial(outer=1.0, maxh=0.3),
     **{name: (lambda f=f: f(2)) for name, f in CURVED.items()},
 }
 
@@ -82,7 +88,8 @@ def test_measure_converges_with_curve_order(name):
 
 @pytest.mark.parametrize("name", ["rectangle", "rectangle_structured", "rectangle_quads",
                                   "block", "block_hexes", "block_prisms", "plate_section",
-                                  "tube_section", "layer_plane", "layer_solid"])
+                                  "tube_section", "layer_plane", "layer_solid", "sphere_radial",
+                                  "ball_radial"])
 def test_straight_measure_exact(bundles, name):
     b = bundles[name]
     assert measure(b) == pytest.approx(b.exact_measure, rel=1e-12)
@@ -90,7 +97,7 @@ def test_straight_measure_exact(bundles, name):
         assert measure(b, region) == pytest.approx(exact, rel=1e-12)
 
 
-@pytest.mark.parametrize("name", ["cap_section", "plate_section", "tube_section", "ball_section"])
+@pytest.mark.parametrize("name", ["cap_section", "plate_section", "tube_section", "ball_section", "sphere_section"])
 def test_axisymmetric_volume(bundles, name):
     b = bundles[name]
     assert b.model == g.AXISYMMETRIC
@@ -119,7 +126,8 @@ def test_named_regions_and_boundaries_non_empty(bundles, name):
         assert axis == pytest.approx(0.0, abs=1e-20)
 
 
-@pytest.mark.parametrize("name", [n for n in ALL if not n.endswith("midsurface")])
+# 1D meshes left out: NGSolve's normal on a point boundary is +1 at either end
+@pytest.mark.parametrize("name", [n for n in ALL if not n.endswith(("midsurface", "radial"))])
 def test_normals_point_outward(bundles, name):
     """Divergence theorem: int_dOmega x.n = dim |Omega| over the outer boundaries."""
     b = bundles[name]
@@ -400,6 +408,11 @@ BAD = [
     (g.disk, dict(radius=1.0, maxh=float("nan")), "maxh"),
     (g.ball_octant, dict(radius=-1.0, maxh=0.3), "radius"),
     (g.ball_section, dict(maxh=0.0), "maxh"),
+    (g.sphere_octant, dict(inner=0.0, outer=1.0, maxh=0.3), "inner"),
+    (g.sphere_section, dict(inner=1.0, outer=1.0, maxh=0.3), "inner"),
+    (g.sphere_section, dict(inner=0.5, outer=-1.0, maxh=0.3), "outer"),
+    (g.sphere_radial, dict(inner=-0.5, outer=1.0, maxh=0.3), "inner"),
+    (g.sphere_radial, dict(outer=1.0, maxh=0.3, cells=0), "cells"),
     (g.radial_grading, dict(n0=1e-3, nR=1e-2, p=0.0, R=1.0), "p"),
     (g.axial_grading, dict(n0=1e-3, nL=1e-2, p=1.0, L=0.0), "L"),
 ]
@@ -427,3 +440,121 @@ def test_mesh_timing_script(tmp_path):
                                          "crease_layer"}
     assert all(r["elements"] > 0 and r["seconds"] > 0 for r in rows)
     assert (tmp_path / "mesh_timing.csv").read_text().count("\n") == len(rows) + 1
+
+
+# ------------------------------------------- spheres with the kinematics they are for ----
+
+@pytest.mark.parametrize("build, surfaces", [
+    (lambda k: g.sphere_section(inner=0.5, outer=1.0, maxh=0.2, curve_order=k), {"inner": 0.5, "outer": 1.0}),
+    (lambda k: g.sphere_octant(inner=0.5, outer=1.0, maxh=0.2, curve_order=k), {"inner": 0.5, "outer": 1.0})])
+def test_sphere_arcs_converge_with_curve_order(build, surfaces):
+    # the section's arcs have length pi r / 2, the octant's spherical faces area pi r^2 / 2
+    b = build(1)
+    for name, r in surfaces.items():
+        exact = math.pi * r / 2 if b.mesh.dim == 2 else math.pi * r**2 / 2
+        errors = []
+        for order in (1, 2, 3):
+            b.mesh.Curve(order)
+            errors.append(abs(ng.Integrate(1, b.mesh, definedon=b.boundary(name), order=8) / exact - 1))
+        assert errors[1] < 0.1 * errors[0] and errors[2] < errors[1] and errors[2] < 1e-3, (name, errors)
+
+
+def test_radial_line_volume_and_centre():
+    for b in (g.sphere_radial(inner=0.5, outer=1.5, maxh=0.3), g.sphere_radial(outer=1.0, maxh=0.3)):
+        assert b.model == g.SPHERICAL
+        assert 4 * math.pi * ng.Integrate(ng.x**2, b.mesh, order=2) == pytest.approx(b.exact_volume, rel=1e-13)
+        inner = [v.point[0] for v in b.mesh.vertices if v.point[0] == b.params["inner"]]
+        assert len(inner) == 1  # the "inner" end (a ball's centre) is a vertex
+    assert g.sphere_radial(outer=1.0, maxh=1 / 64).mesh.ne == 64  # segments of at most maxh, no more
+
+
+SPHERE_MODELS = ["radial", "section", "octant"]
+
+
+@pytest.mark.parametrize("model", SPHERE_MODELS)
+def test_hollow_sphere_swells_homogeneously_and_evaluates_alike(model):
+    # A free hollow sphere taken from free swelling at mu0 to mu1 swells homogeneously,
+    # F' = (lam(mu1)/lam(mu0)) I, in each model; its fields at a point come back as the same
+    # types (float or numpy array of the field's shape) whatever the mesh dimension.
+    from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, SphericalSymmetric
+
+    gel = FloryRehnerGel(Nv=1e-2, chi=0.5)
+    mu0, mu1 = -0.5, -0.1
+    lam0 = gel.lam_free(mu0)
+    if model == "radial":
+        bundle, kinematics, fixes = g.sphere_radial(inner=0.5, outer=1.0, maxh=0.25), SphericalSymmetric(), []
+    elif model == "section":
+        bundle, kinematics = g.sphere_section(inner=0.5, outer=1.0, maxh=0.3), Axisymmetric()
+        fixes = [("axis", "r"), ("equator", "z")]
+    else:
+        bundle, kinematics = g.sphere_octant(inner=0.5, outer=1.0, maxh=0.4), Solid3D()
+        fixes = [("xsym", "x"), ("ysym", "y"), ("zsym", "z")]
+    prob = EquilibriumProblem(bundle.mesh, kinematics=kinematics, materials=gel, lam0=lam0, mu=mu0)
+    for boundary, component in fixes:
+        prob.fix(boundary, component)
+    prob.mu.Set(mu1)
+    prob.solve()
+    stretch = gel.lam_free(mu1) / lam0
+    point = {"radial": (0.8,), "section": (0.5, 0.6), "octant": (0.4, 0.4, 0.4)}[model]
+    F = prob.evaluate(prob.deformation_gradient(prob.displacement), point)
+    assert isinstance(F, np.ndarray) and F.shape == (3, 3)
+    assert F == pytest.approx(stretch * np.eye(3), abs=1e-9)
+    sigma = prob.evaluate(prob.stress(), point)
+    assert isinstance(sigma, np.ndarray) and sigma.shape == (3, 3)
+    assert np.max(np.abs(sigma)) < 1e-9 * gel.Nv
+    J = prob.evaluate(prob.volume_ratio(), point)
+    assert isinstance(J, float) and J == pytest.approx(gel.lam_free(mu1) ** 3, rel=1e-9)
+    u = prob.evaluate(prob.displacement, point)
+    grad = prob.evaluate(ng.Grad(prob.displacement), point)
+    if model == "radial":  # one radial component: scalars
+        assert isinstance(u, float) and isinstance(grad, float)
+        assert u == pytest.approx((stretch - 1) * point[0], rel=1e-9)
+    else:
+        assert isinstance(u, np.ndarray) and u.shape == (len(point),)
+        assert grad.shape == (len(point), len(point))
+        assert u == pytest.approx((stretch - 1) * np.array(point), rel=1e-9)
+    with pytest.raises(ValueError, match=f"point must be {len(point)} finite coordinates"):
+        prob.evaluate(prob.displacement, point + (0.0,))
+    with pytest.raises(ValueError, match="outside the mesh"):
+        prob.evaluate(prob.displacement, tuple(0.1 for _ in point))
+
+
+@pytest.mark.parametrize("copies", [1, 6])
+def test_cap_sector_midsurface_lies_on_the_sphere_and_its_copies_close_the_cap(copies):
+    from geometries.caps import cap_sector_midsurface
+
+    H = 0.3
+    r, zc = (1 + H * H) / (2 * H), H - (1 + H * H) / (2 * H)
+    bundle = cap_sector_midsurface(H=H, angle=math.pi / 3, copies=copies, maxh=0.15, apex_radius=0.05,
+                                   curve_order=3)
+    mesh = bundle.mesh
+    assert measure(bundle) == pytest.approx(bundle.exact_measure, rel=1e-5)
+    apex = ng.Integrate(ng.CF(1), mesh, ng.BND, definedon=mesh.Boundaries("apex"))
+    assert apex == pytest.approx(bundle.region_measures["apex"], rel=1e-2)
+    distance = ng.sqrt(ng.x**2 + ng.y**2 + (ng.z - zc)**2) - r
+    assert math.sqrt(ng.Integrate(distance**2, mesh, ng.BND) / bundle.exact_measure) < 1e-5
+    base = ng.Integrate(ng.CF(1), mesh, ng.BBND, definedon=mesh.BBoundaries("base"))
+    assert base == pytest.approx(copies * math.pi / 3, rel=1e-5)
+    assert ("sym" in mesh.GetBBoundaries()) == (copies == 1)
+
+
+def test_plate_sector_midsurface_area_rim_and_mirror_edges():
+    from geometries.plates import plate_sector_midsurface
+
+    bundle = plate_sector_midsurface(angle=math.pi / 5, copies=2, maxh=0.3, curve_order=3)
+    mesh = bundle.mesh
+    assert set(mesh.GetBoundaries()) == {"gel"}
+
+    def area_error(b):
+        return abs(measure(b) / b.exact_measure - 1)
+
+    def rim_error(b):
+        return abs(ng.Integrate(ng.CF(1), b.mesh, ng.BBND, definedon=b.mesh.BBoundaries("rim")) / (2 * math.pi / 5) - 1)
+
+    chords = plate_sector_midsurface(angle=math.pi / 5, copies=2, maxh=0.3, curve_order=1)
+    assert rim_error(bundle) < rim_error(chords) / 20  # the rim moved onto the circle (chords: 4e-3)
+    assert area_error(bundle) < area_error(chords) / 20
+    end = mesh.BBoundaries("sym_end")  # the line at 2 pi / 5
+    assert ng.Integrate((-math.sin(2 * math.pi / 5) * ng.x + math.cos(2 * math.pi / 5) * ng.y)**2, mesh, ng.BBND,
+                        definedon=end) < 1e-24
+    assert ng.Integrate(ng.CF(1), mesh, ng.BBND, definedon=end) == pytest.approx(1.0, rel=1e-9)

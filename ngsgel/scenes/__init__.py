@@ -41,6 +41,8 @@ SCENES: dict[str, SceneEntry] = {entry.name: entry for entry in (
     SceneEntry("graded-plate-shell", "graded_plate_shell", "ch5"),
     SceneEntry("graded-plate-growth", "graded_plate_growth", "ch5"),
     SceneEntry("graded-tube", "graded_tube", "ch5"),
+    SceneEntry("plate-wedges", "plate_wedges", "ch5"),
+    SceneEntry("cap-sector", "cap_sector", "ch3"),
     SceneEntry("creases", "creases", "future"),
     SceneEntry("crease-tip-convergence", "crease_tip_convergence", "future"),
 )}
