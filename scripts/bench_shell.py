@@ -12,7 +12,15 @@ Point load: apex stiffness of the microlens cap (t/r = 0.005) against Reissner's
 value. Large rotation: a strip rolled into a quarter circle by an end moment. Thin plate: clamped disk R = 1, t = 1e-3, uniform pressure giving w = 0.01 t; centre
 deflection against Kirchhoff's p R^4 / (64 D) with the drained D, under h-refinement.
 
+Newton iteration (``--newton``, issue 34): the cost of each part of one Newton iteration with a
+stability check (tangent assembly, residual, factorisation, solve, negative count; medians of 3,
+one thread) on the microlens half cap (h = 0.05, 0.01 on the apex patch, order 3, unloaded, the
+apex push of 0.01 H pending) and the graded half disk (p = 2, h = 0.2, order 3, at its
+equilibrium at mu0), for each shell variant, with ratios to the first variant (today's default
+shell) from the same run; ``--quick``: the half cap at h = 0.1.
+
     python scripts/bench_shell.py --out results/bench_shell [--quick] [--thickness 0.08]
+    python scripts/bench_shell.py --newton --out results/bench_shell_newton [--quick]
 """
 from __future__ import annotations
 
@@ -21,9 +29,16 @@ import math
 import os
 import time
 
+import ngsolve as ngs
+
 from ngsgel.output import History, Progress, RunDirectory
-from ngsgel.scenes.shell_cases import (GEL, H, MU0, MU1, apex_stiffness_over_reissner, cap_section_rise, cap_shell_rise,
-                                       cap_solid_rise, rolled_strip_tip_error, thin_plate_deflection)
+from ngsgel.scenes.shell_cases import (GEL, H, MU0, MU1, NEWTON_PARTS, apex_stiffness_over_reissner, cap_section_rise,
+                                       cap_shell_rise, cap_solid_rise, graded_plate_shell, indented_half_cap_shell,
+                                       newton_iteration_costs, rolled_strip_tip_error, thin_plate_deflection)
+
+# shell variants compared per Newton iteration: name -> GelShell options (the first is the baseline)
+SHELL_VARIANTS = {"exact (default)": {}, "exact, realcompile residual": {"realcompile": True},
+                  "exact, sparsecholesky": {"inverse": "sparsecholesky"}}
 
 
 def record(history: History, rows: list[dict], row: dict) -> None:
@@ -83,12 +98,54 @@ def run(out: str, *, quick: bool = False, t: float = 0.08) -> dict:
     return {"reference": reference, "cap": rows, "plate": plate, "point": point, "rolled_strip": error}
 
 
+def solved(shell):
+    """The shell at its equilibrium (the graded disk's reference is not one: the soft rim swells)."""
+    shell.solve()
+    return shell
+
+
+def newton_costs(out: str, *, quick: bool = False) -> list[dict]:
+    """Per-iteration cost of every ``SHELL_VARIANTS`` entry on the two cases, one thread, with the
+    ratios ``old / new`` (time of the baseline over the variant's) per part and for the iteration,
+    and each variant's tangent over its own residual."""
+    run_dir = RunDirectory(out, params={"variants": list(SHELL_VARIANTS), "quick": quick})
+    progress = Progress("bench_shell --newton")
+    cap_maxh = 0.1 if quick else 0.05
+    cases = {f"half cap h={cap_maxh}": lambda **o: indented_half_cap_shell(maxh=cap_maxh, apex_maxh=0.01, **o),
+             "graded half disk h=0.2": lambda **o: solved(graded_plate_shell(2.0, maxh=0.2, order=3, half=True, **o)[0])}
+    rows = []
+    ngs.SetNumThreads(1)
+    with History(run_dir.file("newton_iteration.csv")) as history:
+        for case, build in cases.items():
+            baseline = None
+            for variant, options in SHELL_VARIANTS.items():
+                shell = build(**options)
+                shell.form
+                costs = newton_iteration_costs(shell)
+                baseline = baseline or costs
+                row = {"case": case, "variant": variant, "elements": shell.mesh.GetNE(ngs.BND), **costs,
+                       "tangent_over_residual": costs["tangent"] / costs["residual"],
+                       **{f"speedup_{part}": baseline[part] / costs[part] for part in (*NEWTON_PARTS, "iteration")}}
+                record(history, rows, row)
+                progress(f"{case}, {variant}: " + ", ".join(f"{part} {costs[part]:.3f}s" for part in NEWTON_PARTS)
+                         + f"; iteration {costs['iteration']:.3f}s, tangent/residual {row['tangent_over_residual']:.1f}, "
+                         f"iteration speed-up {row['speedup_iteration']:.2f}x ({costs['free_dofs']} free dofs, "
+                         f"{costs['negative']} negative)")
+    return rows
+
+
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="results/bench_shell", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="two resolutions per model (also set by env CI)")
+    parser.add_argument("--quick", action="store_true", help="two resolutions per model; --newton: the half cap at h = 0.1 (also set by env CI)")
     parser.add_argument("--thickness", type=float, default=0.08, help="cap wall thickness (default 0.08)")
+    parser.add_argument("--newton", action="store_true",
+                        help="only the cost per Newton iteration of the shell variants (one thread)")
     args = parser.parse_args(argv)
+    if args.newton:
+        rows = newton_costs(args.out, quick=args.quick or bool(os.environ.get("CI")))
+        print(f"results in {args.out}")
+        return {"newton": rows}
     if not 0 < args.thickness < 0.5:
         raise ValueError(f"--thickness must be in (0, 0.5), got {args.thickness}")
     result = run(args.out, quick=args.quick or bool(os.environ.get("CI")), t=args.thickness)

@@ -479,3 +479,15 @@ def test_clamped_cap_snaps_through_under_pressure_like_the_axisymmetric_solid():
     assert reference.events[0].parameter < 1.0  # below the classical buckling pressure
     height = shell.integrate(ngs.z + shell.displacement[2]) / shell.integrate(ngs.CF(1.0))
     assert height < 0  # the mid-surface's centroid below the clamped base: the cap turned inside out
+
+
+def test_newton_iteration_costs_of_a_coarse_half_cap():
+    # scripts/bench_shell.py --newton: every part of an iteration timed, the stable unloaded cap
+    # has no negative eigenvalue, and a bad repeat count is refused before any work
+    shell = shell_cases.indented_half_cap_shell(maxh=0.3, apex_maxh=0.05, order=2)
+    costs = shell_cases.newton_iteration_costs(shell, repeats=1)
+    assert all(costs[part] > 0 for part in shell_cases.NEWTON_PARTS)
+    assert costs["iteration"] == pytest.approx(sum(costs[part] for part in shell_cases.NEWTON_PARTS))
+    assert costs["negative"] == 0 and costs["free_dofs"] == int(shell.free_mask.sum())
+    with pytest.raises(ValueError, match="repeats"):
+        shell_cases.newton_iteration_costs(shell, repeats=0)

@@ -26,7 +26,7 @@ from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, fo
 from ngsgel.continuation import StabilityOptions
 from ngsgel.patterns import sample_on_circle, wave_number
 from ngsgel.shell import GelShell, plate_bending_stiffness
-from ngsgel.stability import conjugate_force, load_rate
+from ngsgel.stability import conjugate_force, free_matrix, load_rate, negative_count
 
 from ngsgel.scenes.microlens import cap_waves
 
@@ -246,6 +246,63 @@ def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: flo
     return row
 
 
+# ----------------------------------------------------------------------------- cost per Newton iteration
+NEWTON_PARTS = ("tangent", "residual", "factorisation", "solve", "stability")
+
+
+def indented_half_cap_shell(*, maxh: float, apex_maxh: float, order: int = 3, depth: float = 0.01,
+                            **shell_options) -> GelShell:
+    """The microlens half cap (``cap_midsurface(half=True)``, t = 0.005 r, mu = 0, base clamped,
+    mirror plane ``sym``) with its apex patch pushed down by ``depth H`` (z prescribed, the
+    microlens path's load), not yet solved; ``shell_options`` go to ``GelShell``."""
+    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=APEX, apex_maxh=apex_maxh, curve_order=order, half=True)
+    shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=MICROLENS_T, mu=0.0,
+                     order=order, **shell_options)
+    shell.clamp("base")
+    shell.symmetry("sym", normal="y")
+    shell.prescribe_region("apex", "z", -depth * H)
+    return shell
+
+
+def newton_iteration_costs(problem, *, repeats: int = 3) -> dict:
+    """Wall time (s, median of ``repeats``) of each part of one Newton iteration with a stability
+    check at the problem's current state: ``tangent`` (assembly), ``residual`` (one evaluation),
+    ``factorisation`` (numeric, symbolic factorisation reused as in a path), ``solve`` (one
+    triangular solve), ``stability`` (exact negative count of the free tangent, as
+    ``follow_path`` does at every state); ``iteration``: their sum. Also the negative count and
+    the free unknowns. Run with one thread to compare variants."""
+    if not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
+    x = problem.state
+    r = x.CreateVector()
+    dx = x.CreateVector()
+    problem.residual(x, r)
+    solver = problem._solver
+    solver.factor(problem.tangent(x))  # symbolic factorisation outside the timing
+    samples = {part: [] for part in NEWTON_PARTS}
+    negative = None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        K = problem.tangent(x)
+        samples["tangent"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        problem.residual(x, r)
+        samples["residual"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        inverse = solver.factor(K)
+        samples["factorisation"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        dx.data = inverse * r
+        samples["solve"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        negative = negative_count(free_matrix(K, problem.free_mask))
+        samples["stability"].append(time.perf_counter() - start)
+    row = {part: float(np.median(values)) for part, values in samples.items()}
+    row["iteration"] = sum(row[part] for part in NEWTON_PARTS)
+    row.update(negative=negative, free_dofs=int(problem.free_mask.sum()))
+    return row
+
+
 # ----------------------------------------------------------------------------- graded plate
 # Softer-edge disk of ngsgel/scenes/graded_plate.py (MODEL.md 5 C): R = 1, t = 0.01, chi = 0.5,
 # Nv(r) = n0 + (nR - n0) (r/R)^p, reference stretched by the stiff gel's lam_free(mu0), mu0 = -1,
@@ -294,8 +351,8 @@ def graded_gel(p: float, *, n0: float = GRADED_N0, nR: float = GRADED_NR) -> tup
 
 
 def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T, realcompile: bool = False,
-                       half: bool = False, n0: float = GRADED_N0,
-                       nR: float = GRADED_NR) -> tuple[GelShell, ngs.Mesh, list]:
+                       half: bool = False, n0: float = GRADED_N0, nR: float = GRADED_NR,
+                       **shell_options) -> tuple[GelShell, ngs.Mesh, list]:
     """The graded disk (thickness ``t``) as a ``GelShell`` on the full disk at ``mu0`` (not yet solved): graded
     ``Nv`` as a field, the stiff gel's free-swelling reference (as the axisymmetric section of
     ``graded_plate.build``). Rigid motions are removed by six statically determinate pins
@@ -303,12 +360,12 @@ def graded_plate_shell(p: float, *, maxh: float, order: int, t: float = GRADED_T
     flat state loads none of them, and the critical modes (outer third) hardly move there.
     ``half``: the half disk y >= 0 with mirror symmetry about y = 0 (only cos k theta modes of w:
     the sin k theta partner of every wave number, which shares its eigenvalue on the full disk,
-    is excluded); three pins (centre: x, z; the x-axis vertex: z).
-    Returns the shell, the mesh and the off-centre pin points."""
+    is excluded); three pins (centre: x, z; the x-axis vertex: z). ``shell_options`` go to
+    ``GelShell`` (e.g. ``inverse``). Returns the shell, the mesh and the off-centre pin points."""
     mesh = split_disk(maxh=maxh, curve_order=order, half=half)
     gel, lam0 = graded_gel(p, n0=n0, nR=nR)
     shell = GelShell(mesh, material=gel, lam0=lam0, thickness=t, mu=GRADED_MU0, order=order,
-                     realcompile=realcompile)
+                     realcompile=realcompile, **shell_options)
     if half:
         shell.symmetry("cut", normal="y")
         on_x = _axis_vertex(mesh, 0, PIN_RADIUS)
