@@ -7,7 +7,6 @@ from __future__ import annotations
 import shutil
 
 import numpy as np
-import ngsolve as ngs
 import pytest
 
 from geometries import cap_midsurface

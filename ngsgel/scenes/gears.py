@@ -809,7 +809,7 @@ def _main(argv=None):
                         help="NGSolve threads (1: on the shared 2-core machine, load average ~9, one thread "
                              "was 2x faster for the 2D solves and 30x for the radial 1D analysis)")
     parser.add_argument("--resume", default=None, metavar="DIR",
-                        help="go on with the stopped sweep in DIR, from the first case it has no row of, with its options")
+                        help="go on with the stopped sweep in DIR, from the first case it has no row of, with its options (default: none, a new run)")
     args = resume_arguments(parser, argv)
     quick = quick_run(args)
     scene = Scene(efi=args.efi, efo=args.efo, ri_tfi=args.ri_tfi, ro_tfo=args.ro_tfo, nu_film=args.nu_film,
