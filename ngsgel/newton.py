@@ -19,7 +19,7 @@ import ngsolve as ngs
 
 from . import linalg
 
-__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver", "Work", "total_work"]
+__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver", "Work", "WorkCounts", "total_work"]
 
 
 class NonlinearSystem(Protocol):
@@ -77,8 +77,20 @@ def total_work(records) -> Work:
     return out
 
 
+class WorkCounts:
+    """Total factorisations and solves of a result whose ``work`` sums its records."""
+
+    @property
+    def factorisations(self) -> int:
+        return self.work.factorisations
+
+    @property
+    def solves(self) -> int:
+        return self.work.solves
+
+
 @dataclass
-class NewtonResult:
+class NewtonResult(WorkCounts):
     converged: bool
     iterations: int
     residuals: list[float] = field(default_factory=list)
@@ -93,14 +105,6 @@ class NewtonResult:
     def work(self) -> Work:
         """Times and counts of the whole solve (``total_work`` of ``records``)."""
         return total_work(self.records)
-
-    @property
-    def factorisations(self) -> int:
-        return self.work.factorisations
-
-    @property
-    def solves(self) -> int:
-        return self.work.solves
 
 
 class NewtonError(RuntimeError):

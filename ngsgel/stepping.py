@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import ngsolve as ngs
 
-from .newton import LinearSolver, NewtonError, NewtonResult, Work, total_work
+from .newton import LinearSolver, NewtonError, NewtonResult, Work, WorkCounts, total_work
 from .output import report_progress
 from .threads import using_threads
 
@@ -55,7 +55,7 @@ class ValueReached:
 
 
 @dataclass
-class RampResult:
+class RampResult(WorkCounts):
     converged: bool
     goals: list[float] = field(default_factory=list)  # the values to reach: ``values``, or ``[target]``
     records: list[RampStep] = field(default_factory=list)
@@ -83,14 +83,6 @@ class RampResult:
         """Times and counts of the whole ramp: every step's predictor and solves, failed tries
         included."""
         return total_work([w for step in self.records for w in step.records] + self.failed_work)
-
-    @property
-    def factorisations(self) -> int:
-        return self.work.factorisations
-
-    @property
-    def solves(self) -> int:
-        return self.work.solves
 
     @property
     def schedule(self) -> list[ValueReached]:
