@@ -37,7 +37,7 @@ import ngsolve as ngs
 from .newton import LinearSolver, NewtonError, NewtonResult, Work, newton, total_work
 from .output import report_progress
 from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
-                        spectrum, state_rate)
+                        negative_count, spectrum, state_rate)
 from .stepping import RampError, ramp
 
 __all__ = ["StabilityOptions", "Stabilization", "PathPoint", "PathStep", "Event", "Checkpoint", "Resumption", "PathResult",
@@ -50,8 +50,12 @@ Method = Literal["natural", "arclength"]
 class StabilityOptions:
     """Stability monitoring of every converged state.
 
-    ``eigenvalues``: how many of the lowest to compute and record (at least every negative one
-    and the next, which the location of a change of the negative count needs). ``locate``: find the critical
+    ``eigenvalues``: how many of the lowest to compute and record at every point (at least every
+    negative one and the next). 0 (the default): the check at each point is the exact negative
+    count alone, from one factorisation of the tangent (with PARDISO the one the next Newton solve
+    starts from); the eigenpairs, which an eigen solve costs several factorisations' worth of
+    time for, are computed only where the count changes, for the location and the branch switch.
+    ``locate``: find the critical
     parameter of a change of the negative count to ``tol`` (load-parameter units).
     ``bifurcation_threshold``: a critical mode whose normalised projection on ``dR/dlambda`` is
     below it marks a bifurcation, otherwise a limit point. ``switch``: at a bifurcation, leave the
@@ -60,7 +64,7 @@ class StabilityOptions:
     branch at the same load.
     """
 
-    eigenvalues: int = 3
+    eigenvalues: int = 0
     locate: bool = True
     tol: float = 1e-4
     bifurcation_threshold: float = 1e-2
@@ -518,7 +522,9 @@ class _Driver:
         self.solver = solver if stability and isinstance(solver, LinearSolver) and solver.inverse == "pardiso" else None
 
     # ------------------------------------------------------------------ stability
-    def spectrum(self) -> Spectrum | None:
+    def spectrum(self, *, eigenpairs: bool = False) -> Spectrum | None:
+        """Stability of the current state: the exact negative count, with the lowest eigenpairs
+        (up to the first non-negative one) if the options record them or ``eigenpairs`` asks."""
         if self.stability is None:
             return None
         clock = time.perf_counter
@@ -532,11 +538,25 @@ class _Driver:
             work.factorisation, work.factorisations = clock() - t, 1
             ldlt = self.solver.ldlt  # None where pivots were perturbed: SuperLU counts instead
         K = free_matrix(matrix, self.problem.free_mask)
-        found = spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass, past_negative=True,
-                         factorisation=ldlt)
+        if eigenpairs or self.stability.eigenvalues:
+            found = spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass,
+                             past_negative=True, factorisation=ldlt)
+        else:
+            found = Spectrum(eigenvalues=np.empty(0), modes=np.empty((K.shape[0], 0)),
+                             negative=negative_count(K) if ldlt is None else ldlt.negative)
         work.total = clock() - started
         self._work.append(work)
         return found
+
+    def with_eigenpairs(self, point: _Converged) -> None:
+        """Give ``point`` (a count-only check) its eigenpairs; the problem's state is kept."""
+        if point.spectrum is None or len(point.spectrum.eigenvalues):
+            return
+        here = (self.parameter.Get(), self.problem.save_state())
+        self._goto(point)
+        point.spectrum = self.spectrum(eigenpairs=True)
+        self.parameter.Set(here[0])
+        self.problem.restore_state(here[1])
 
     def add_work(self, records) -> None:
         """Work of the step under way (Newton records of a solve)."""
@@ -549,8 +569,9 @@ class _Driver:
         self._work = []
         return step
 
-    def converged(self, iterations: int = 0) -> _Converged:
-        return _Converged(self.parameter.Get(), self.problem.save_state(), self.spectrum(), iterations)
+    def converged(self, iterations: int = 0, *, eigenpairs: bool = False) -> _Converged:
+        return _Converged(self.parameter.Get(), self.problem.save_state(), self.spectrum(eigenpairs=eigenpairs),
+                          iterations)
 
     def _goto(self, point: _Converged) -> None:
         self.problem.restore_state(point.state)
@@ -637,6 +658,8 @@ class _Driver:
         if not self.locate_events:
             return unlocated({})
         try:
+            for end in (b, a):  # b first: the problem holds it, and is left at it
+                self.with_eigenpairs(end)
             critical, error = self._locate(a, b, segment)
         except (NewtonError, LocationError) as err:  # reported at the end of the step, which did converge
             return unlocated({"locate_failed": str(err)})
@@ -684,7 +707,7 @@ class _Driver:
             # keep the point off the ends of the bracket so that both ends keep moving
             s = min(max(s, lo[0] + 0.05 * width), hi[0] - 0.05 * width)
             segment(s)
-            point = self.converged()
+            point = self.converged(eigenpairs=True)
             if point.spectrum.negative < index:  # fewer than at either end: the tracked one is not alone
                 raise LocationError(f"{point.spectrum.negative} negative eigenvalues at parameter {point.parameter:g}, "
                                     f"fewer than the {a.spectrum.negative} and {b.spectrum.negative} at the ends of "

@@ -27,8 +27,9 @@ factorisation (analysis), a numeric refactorisation and a solve of its tangent; 
 the condensed tangent (setup once, two solves); the 20-step
 ramp with the defaults (``inverse="auto"``) and with sparsecholesky, per ramp and per Newton
 iteration; and a path with stability tracking against the same path without
-(``follow_path``, natural, 5 steps): the mean step time, tracked / untracked, from the
-``PathResult.steps`` work records.
+(``follow_path``, natural, 5 steps): the mean step time untracked, with the default count-only
+check and with eigenpairs at every point, / untracked, from the ``PathResult.steps`` work records
+(``--sizes ''`` for the path alone).
 """
 
 from __future__ import annotations
@@ -369,15 +370,34 @@ def issue35_ramp(maxh: float, inverse: str, reuse: bool = False) -> dict[str, fl
             **{f"{part}_s": getattr(work, part) for part in Work.TIMES if part != "total"}}
 
 
-def issue35_path(maxh: float, tracked: bool, steps: int = 5) -> list:
-    from ngsgel.continuation import StabilityOptions, follow_path
+def issue35_path(maxh: float, stability, steps: int = 5) -> list:
+    from ngsgel.continuation import follow_path
 
     prob = issue35_problem(maxh, "auto")
     mu = issue35_mu_values(steps)
     result = follow_path(prob, prob.mu, method="natural", step=mu[0] - ISSUE35_GEL.mu_free(1.3),
-                         max_step=mu[0] - ISSUE35_GEL.mu_free(1.3), grow=1.0, target=mu[-1],
-                         stability=StabilityOptions(eigenvalues=2) if tracked else None)
+                         max_step=mu[0] - ISSUE35_GEL.mu_free(1.3), grow=1.0, target=mu[-1], stability=stability)
     return result.steps[1:]  # the steps, not the start
+
+
+def tracking_costs(maxh: float, path_size: str, history: History) -> None:
+    """Mean step time of the same path untracked, with the count-only stability check (the
+    default) and with two eigenpairs recorded at every point, in one run."""
+    from ngsgel.continuation import StabilityOptions
+
+    variants = {"untracked": None, "count-only": StabilityOptions(), "eigenpairs": StabilityOptions(eigenvalues=2)}
+    steps = {name: issue35_path(maxh, options) for name, options in variants.items()}
+    mean = {name: statistics.mean(s.work.total for s in v) for name, v in steps.items()}
+    row = {"size": path_size}
+    for name, v in steps.items():
+        check = statistics.mean(s.part("stability").total for s in v)
+        facs = statistics.mean(s.work.factorisations for s in v)
+        print(f"{path_size}: follow_path step, 1 thread, {name}: {mean[name]:.2f}s ({facs:.1f} factorisations"
+              + (f", stability check {check:.2f}s" if variants[name] else "")
+              + f"), / untracked {mean[name] / mean['untracked']:.2f}", flush=True)
+        row.update({f"{name}_s": mean[name], f"{name}_check_s": check, f"{name}_factorisations": facs,
+                    f"{name}_ratio": mean[name] / mean["untracked"]})
+    history.append(row)
 
 
 def issue35(sizes: list[str], run_dir, path_size: str) -> None:
@@ -411,16 +431,7 @@ def issue35(sizes: list[str], run_dir, path_size: str) -> None:
                   f"{t['factorisations']} factorisations, {t['s_per_iteration']:.2f}s per iteration; in all: "
                   + ", ".join(f"{part} {t[part + '_s']:.1f}s" for part in Work.TIMES if part != "total"), flush=True)
             histories["ramps"].append({"size": size, "inverse": inverse, "reuse": reuse, "threads": 1, **t})
-    maxh = ISSUE35_SIZES[path_size]
-    steps = {tracked: issue35_path(maxh, tracked) for tracked in (False, True)}
-    mean = {k: statistics.mean(s.work.total for s in v) for k, v in steps.items()}
-    check = statistics.mean(s.part("stability").total for s in steps[True])
-    facs = {k: statistics.mean(s.work.factorisations for s in v) for k, v in steps.items()}
-    print(f"{path_size}: follow_path step, 1 thread: untracked {mean[False]:.2f}s ({facs[False]:.1f} factorisations), "
-          f"tracked {mean[True]:.2f}s ({facs[True]:.1f} factorisations, stability check {check:.2f}s): "
-          f"tracked / untracked {mean[True] / mean[False]:.2f}", flush=True)
-    histories["path_steps"].append({"size": path_size, "untracked_s": mean[False], "tracked_s": mean[True],
-                                    "stability_check_s": check, "ratio": mean[True] / mean[False]})
+    tracking_costs(ISSUE35_SIZES[path_size], path_size, histories["path_steps"])
     for history in histories.values():
         history.close()
 

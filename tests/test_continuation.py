@@ -12,6 +12,7 @@ from ngsolve.meshes import MakeStructured2DMesh
 from ngsgel import EquilibriumProblem, NeoHookeanFilm, PlaneStrain
 from ngsgel.continuation import Checkpoint, ContinuationError, StabilityOptions, Stabilization, follow_path
 from ngsgel.output import History
+from ngsgel import stability
 from ngsgel.stability import linear_buckling, random_field, seed_imperfection
 
 from ngsgel.scenes import buckling_demo
@@ -369,8 +370,8 @@ def test_a_step_with_more_than_one_crossing_is_reported_unlocated(monkeypatch):
         finally:
             self.second_crossing = False
 
-    def converged_with_none_negative_inside(self, iterations=0):
-        point = converged(self, iterations)
+    def converged_with_none_negative_inside(self, iterations=0, **options):
+        point = converged(self, iterations, **options)
         if getattr(self, "second_crossing", False):
             point.spectrum = Spectrum(eigenvalues=np.array([1.0]), modes=np.zeros((len(point.state), 1)), negative=0)
         return point
@@ -409,6 +410,33 @@ def test_a_natural_step_across_a_limit_point_is_a_jump_that_max_correction_refus
     for method, value in (("natural", 0.0), ("arclength", 2.0)):
         with pytest.raises(ValueError, match="max_correction"):
             follow_path(prob, load, method=method, step=0.01, target=0.05, max_correction=value)
+
+
+def test_count_only_checks_find_the_same_events_and_solve_eigenproblems_only_where_the_count_changes(monkeypatch):
+    eigen_solves = []
+    arpack = stability.sla.eigsh
+    monkeypatch.setattr(stability.sla, "eigsh", lambda *a, **k: eigen_solves.append(1) or arpack(*a, **k))
+    results, solves = {}, {}
+    for name, options in (("eigenpairs", StabilityOptions(eigenvalues=2, tol=1e-4)), ("count", StabilityOptions(tol=1e-4))):
+        prob, load, deflection = arch()
+        eigen_solves.clear()
+        results[name] = follow_path(prob, load, step=0.01, max_step=0.02, target=0.05, qoi={"w": deflection},
+                                    stability=options, max_steps=60)
+        solves[name] = len(eigen_solves)
+    full, count = results["eigenpairs"], results["count"]
+    assert [e.kind for e in count.events] == [e.kind for e in full.events] == ["limit point", "limit point"]
+    for a, b in zip(count.events, full.events):
+        assert (a.negative_before, a.negative_after) == (b.negative_before, b.negative_after)
+        assert a.parameter == pytest.approx(b.parameter, rel=1e-9) and a.eigenvalue == pytest.approx(b.eigenvalue, rel=1e-6)
+    assert [p.negative for p in count.points] == [p.negative for p in full.points]
+    # count-only: eigenpairs at the located points and at the end of the step each was found in
+    with_pairs = [i for i, p in enumerate(count.points) if p.eigenvalues]
+    assert with_pairs == [i + d for i, p in enumerate(count.points) if p.events for d in (0, 1)]
+    assert all(len(p.eigenvalues) >= 2 for p in full.points)
+    # one eigen solve (or more) per point with eigenpairs; count-only: the location's, and one at
+    # each end of a step whose count changed
+    plain = len(count.points) - len(count.events)
+    assert solves["count"] <= solves["eigenpairs"] - plain + 2 * len(count.events)
 
 
 @pytest.mark.parametrize("method", ["natural", "arclength"])
