@@ -10,9 +10,16 @@ tangent, the first bifurcation - axisymmetric to three-fold - located and switch
 three-fold branch. Modes of the other wave numbers are invisible to the sector, so every state is
 also mapped onto the whole cap, a mesh made of six mirror images of the sector's
 (``geometries.caps.cap_sector_midsurface``: node by node, ``plate_wedges.Reflection``), and the
-exact negative count of the whole cap's tangent is taken there (every ``check_every`` steps, then
-bisected in ``d`` between the last stable and the first unstable state to ``tol`` H). Reported:
-that depth, the lowest eigenvalues of the whole cap there and their modes' wave numbers.
+exact negative count of the whole cap's tangent is taken there at every state from ``check_from``
+on, then bisected in ``d`` between the last stable and the first unstable state to ``tol`` H.
+Reported: that depth, the lowest eigenvalues of the whole cap there and their modes' wave numbers.
+
+A patterned state of the cap turned about its axis is again an equilibrium (cap and loads are
+axisymmetric), so on the three-fold branch the whole cap has a neutral mode, the pattern's
+rotation. The mesh of six mirror images keeps only the rotations by 120 degrees, and leaves that
+mode an eigenvalue of round-off size (|eig| ~ 1e-9 against ~1e-5 for the next) and either sign.
+A negative eigenvalue whose mode is that rotation (``ROTATION_OVERLAP``) is therefore not counted as
+a loss of stability: the criterion is the count of the other negative eigenvalues.
 
 Writes ``path.csv`` (sector path with the whole cap's negative count where checked) and
 ``summary.json``.
@@ -40,6 +47,7 @@ from ngsgel.shell import GelShell
 from ngsgel.stability import conjugate_force, free_matrix, mass_matrix, negative_count, spectrum
 
 SECTOR = math.pi / 3
+ROTATION_OVERLAP = 0.9  # a mode this parallel (L2 cosine of the displacements) to the rotation is it
 
 
 class SectorCap:
@@ -76,25 +84,52 @@ class SectorCap:
         return 6 * conjugate_force(self.sector, self.depth) / self.force_scale
 
     def whole_cap(self, *, eigenvalues: int = 0) -> dict:
-        """The sector's current state on the whole cap: exact negative count of its tangent and,
-        with ``eigenvalues``, the lowest ones with the wave numbers of their modes."""
+        """The sector's current state on the whole cap: the exact negative count of its tangent
+        (``negative``) and ``unstable``, that count without a negative eigenvalue whose mode is the
+        pattern's neutral rotation (``rotation_overlap``); the lowest eigenvalues (at least
+        ``eigenvalues``, all negative ones and the next when there are any) with their modes' wave
+        numbers and overlaps with the rotation."""
         self.full_depth.Set(self.depth.Get())
         self.full.restore_state(self.reflection.state(self.sector))
         with ngs.TaskManager():
             K = free_matrix(self.full.tangent(self.full.state), self.full.free_mask)
-        result = {"negative": negative_count(K)}
-        if eigenvalues:
+        negative = negative_count(K)
+        result = {"negative": negative, "unstable": negative}
+        count = max(eigenvalues, negative + 1 if negative else 0)
+        if count:
             with ngs.TaskManager():
                 M = free_matrix(mass_matrix(self.full), self.full.free_mask)
-            lowest = spectrum(self.full, count=eigenvalues, K=K, M=M)
+            lowest = spectrum(self.full, count=count, K=K, M=M)
+            rotation = self.rotation_generator()
             mode = ngs.GridFunction(self.full.space)
             result["modes"] = []
             for value, vector in zip(lowest.eigenvalues, lowest.modes.T):
                 values = np.zeros(self.full.space.ndof)
                 values[self.full.free_mask] = vector
                 mode.vec.FV().NumPy()[:] = values
-                result["modes"].append({"eigenvalue": float(value), **self.waves(mode.components[0])})
+                overlap = self.rotation_overlap(mode.components[0], rotation)
+                result["modes"].append({"eigenvalue": float(value), "rotation_overlap": overlap,
+                                        **self.waves(mode.components[0])})
+            rotating = [m for m in result["modes"] if m["eigenvalue"] < 0 and m["rotation_overlap"] > ROTATION_OVERLAP]
+            result["unstable"] = negative - min(len(rotating), 1)
         return result
+
+    def rotation_generator(self) -> ngs.CoefficientFunction:
+        """Displacement rate of the whole cap's state turned about the z axis, per radian: with
+        ``phi = X + u``, ``d/da [Q_a phi(Q_-a X)] = e_z x u - grad(u) (e_z x X)`` (zero for an
+        axisymmetric state)."""
+        u = self.full.displacement
+        return ngs.Cross(ngs.CF((0.0, 0.0, 1.0)), u) - ngs.Grad(u) * ngs.CF((-ngs.y, ngs.x, 0.0))
+
+    def rotation_overlap(self, mode_u: ngs.GridFunction, rotation: ngs.CoefficientFunction) -> float:
+        """``|(phi, g)| / (|phi| |g|)`` in L2 of the mid-surface for a mode's displacement ``phi`` and
+        the rotation's ``g`` (0 when ``g`` vanishes: an axisymmetric state has no rotation mode)."""
+        mesh = self.full_mesh
+        u = self.full.displacement
+        gg, pp = (ngs.Integrate(f * f, mesh, ngs.BND) for f in (rotation, mode_u))
+        if not gg > 1e-20 * ngs.Integrate(u * u, mesh, ngs.BND):
+            return 0.0
+        return float(abs(ngs.Integrate(mode_u * rotation, mesh, ngs.BND)) / math.sqrt(gg * pp))
 
     def waves(self, u: ngs.GridFunction | None = None) -> dict:
         """Wave content of the normal deflection of ``u`` (default: the whole cap's state) from its
@@ -133,10 +168,13 @@ def run(out: str, *, H: float = 0.3, maxh: float = 0.06, apex_maxh: float = 0.01
         realcompile: bool = False) -> dict:
     """The sector's path to ``depth`` H (natural steps of ``step`` H, halved when Newton fails, the
     sector's first bifurcation switched onto with amplitude 0.1 t), the whole cap checked at every
-    state from ``check_from`` H on; at the first unstable one the run bisects back to ``tol`` H."""
+    state from ``check_from`` H on; between the last stable and the first unstable one the run
+    bisects to ``tol`` H ("unstable": ``SectorCap.whole_cap``'s count, the rotation excluded)."""
     for name, value in (("maxh", maxh), ("step", step), ("depth", depth), ("tol", tol)):
         if not value > 0:
             raise ValueError(f"{name} must be > 0, got {value!r}")
+    if not 0 <= check_from <= depth:
+        raise ValueError(f"check_from must be in [0, depth = {depth!r}], got {check_from!r}")
     run_dir = RunDirectory(out, params=dict(H=H, maxh=maxh, apex_maxh=apex_maxh, apex=apex, order=order, depth=depth,
                                             step=step, check_from=check_from, tol=tol))
     progress = Progress("cap_sector")
@@ -144,22 +182,25 @@ def run(out: str, *, H: float = 0.3, maxh: float = 0.06, apex_maxh: float = 0.01
     cap = SectorCap(H=H, maxh=maxh, apex_maxh=apex_maxh, apex=apex, order=order, realcompile=realcompile)
     checks: list[dict] = []
 
-    def whole_negative() -> float:
+    def check(**extra) -> dict:
+        result = {"d_over_H": cap.depth.Get() / H, **extra, **cap.whole_cap()}
+        checks.append(result)
+        run_dir.write_json("checks.json", checks)
+        return result
+
+    def whole_unstable() -> float:
         if cap.depth.Get() < check_from * H - 1e-12:
             return -1
-        check = {"d_over_H": cap.depth.Get() / H, **cap.whole_cap()}
-        checks.append(check)
-        run_dir.write_json("checks.json", checks)
-        return check["negative"]
+        return check()["unstable"]
 
-    qoi = {"d_over_H": lambda: cap.depth.Get() / H, "force": cap.force, "whole_negative": whole_negative}
+    qoi = {"d_over_H": lambda: cap.depth.Get() / H, "force": cap.force, "whole_unstable": whole_unstable}
     stability = StabilityOptions(eigenvalues=3, switch=True, amplitude=0.1, length=cap.t, tol=tol * H)
     with History(run_dir.file("path.csv")) as history:
         try:
             path = follow_path(cap.sector, cap.depth, method="natural", step=step * H, max_step=step * H,
                                min_step=step * H / 64, target=depth * H, stability=stability, qoi=qoi,
                                history=history, keep_states=True, progress=progress,
-                               stop=lambda pt: pt.qoi["whole_negative"] > 0)
+                               stop=lambda pt: pt.qoi["whole_unstable"] > 0)
         except ContinuationError as exc:
             path = exc.result
     points = path.points
@@ -167,22 +208,25 @@ def run(out: str, *, H: float = 0.3, maxh: float = 0.06, apex_maxh: float = 0.01
                "sector_events": [{"kind": e.kind, "d_over_H": e.parameter / H, "negative_after": e.negative_after}
                                  for e in path.events],
                "stop_reason": path.stop_reason, "end_d_over_H": points[-1].parameter / H}
-    unstable = [pt for pt in points if pt.qoi["whole_negative"] > 0]
-    if unstable:  # bisect between the last whole-stable state and the first unstable one
-        first = points.index(unstable[0])
-        stable = points[first - 1]
-        low, high = stable.parameter, unstable[0].parameter
+    checked = [pt for pt in points if pt.qoi["whole_unstable"] >= 0]
+    first = next((i for i, pt in enumerate(checked) if pt.qoi["whole_unstable"] > 0), None)
+    if first == 0:
+        summary["unstable_from_first_check"] = checked[0].parameter / H
+    elif first is not None and "branch switch" in checked[first].events:
+        # the bracket spans the sector's switch to another branch: no path in d joins its ends
+        summary["bracket_across_branch_switch"] = [checked[first - 1].parameter / H, checked[first].parameter / H]
+    elif first is not None:
+        stable, unstable = checked[first - 1], checked[first]
+        low, high = stable.parameter, unstable.parameter
         cap.sector.restore_state(stable.state)
-        cap.depth.Set(low)
         while high - low > tol * H:
             middle = 0.5 * (low + high)
             cap.depth.Set(middle)
             cap.sector.solve()
-            negative = cap.whole_cap()["negative"]
-            checks.append({"d_over_H": middle / H, "negative": negative, "bisection": True})
-            run_dir.write_json("checks.json", checks)
-            progress(f"bisection: d/H = {middle / H:.4f}, whole cap negative {negative}")
-            if negative:
+            result = check(bisection=True)
+            progress(f"bisection: d/H = {middle / H:.4f}, whole cap negative {result['negative']}, "
+                     f"unstable {result['unstable']}")
+            if result["unstable"]:
                 high = middle
             else:
                 low = middle
