@@ -7,7 +7,9 @@ import ngsolve as ngs
 import pytest
 
 from geometries.plates import plate_sector_midsurface, sector_copy_map
-from ngsgel.scenes.plate_wedges import check_wave, fold, reflect_displacement, wedge_plate
+from ngsgel.output import RunDirectory
+from ngsgel.scenes.plate_wedges import check_wave, fold, reflect_displacement, relax_wedge, wedge_plate
+from ngsgel.stability import free_matrix, negative_count
 
 
 def _equivariant_field(k: int) -> ngs.CoefficientFunction:
@@ -32,7 +34,7 @@ def _with_mirror_conditions(u: ngs.GridFunction, mesh: ngs.Mesh, k: int) -> None
     ux[centre] = uy[centre] = 0.0  # on both planes
 
 
-@pytest.mark.parametrize("k", [2, 4, 5])
+@pytest.mark.parametrize("k", [1, 2, 4, 5])
 def test_a_wedge_displacement_reflected_onto_the_disk_is_its_mirror_image_everywhere(k):
     wedge = plate_sector_midsurface(angle=math.pi / 20, copies=20 // k, maxh=0.3, curve_order=3).mesh
     disk = plate_sector_midsurface(angle=math.pi / 20, copies=40, maxh=0.3, curve_order=3).mesh
@@ -88,3 +90,61 @@ def test_wave_numbers_must_divide_the_base_sectors():
         check_wave(3, 20)
     with pytest.raises(ValueError, match="copies"):
         plate_sector_midsurface(angle=math.pi / 20, copies=41, maxh=0.3)
+
+
+def test_the_stretch_load_gives_the_states_of_mu_at_the_softer_gels_free_swelling_stretch():
+    """The wedge loaded by the softer gel's free-swelling stretch s is the wedge at mu(s): at the
+    stretch of mu = -0.6 both shells reach the same equilibrium (energy, deflection-free swelling)."""
+    by_mu, _ = wedge_plate(2.0, 5, maxh=0.3, order=2, load="mu")
+    by_stretch, _ = wedge_plate(2.0, 5, maxh=0.3, order=2, load="stretch")
+    assert by_stretch.load is not by_stretch.mu and by_mu.load is by_mu.mu
+    by_mu.mu.Set(-0.6)
+    by_stretch.load.Set(by_stretch.load_at(-0.6))
+    assert by_stretch.load.Get() > 1.0  # a stretch, not mu
+    assert abs(by_stretch.mu_value() + 0.6) < 1e-12
+    by_mu.solve()
+    by_stretch.solve()
+    assert abs(by_stretch.energy() - by_mu.energy()) < 1e-10 * abs(by_mu.energy())
+    difference = by_stretch.state.FV().NumPy() - by_mu.state.FV().NumPy()
+    assert np.max(np.abs(difference)) < 1e-9 * np.max(np.abs(by_mu.state.FV().NumPy()))
+
+
+def test_the_half_disk_wedge_holds_its_rigid_motions_and_swells_flat():
+    """k = 1 is the half disk mirrored about y = 0 with two more pins: its flat swelling is a
+    regular equilibrium (no free rigid motion) that stays flat (the pins take no load)."""
+    shell, mesh = wedge_plate(0.75, 1, maxh=0.3, order=2)
+    assert set(mesh.GetBBoundaries()) >= {"sym", "sym_end"}
+    shell.mu.Set(-0.8)
+    shell.solve()
+    w = shell.displacement.components[0].vec.FV().NumPy()
+    z = shell.displacement[2]
+    assert max(abs(z(mesh(x, y, 0.0, ngs.BND))) for x, y in ((0.5, 0.3), (-0.7, 0.2), (0.9, 0.1))) < 1e-10
+    assert np.max(np.abs(w)) > 1e-3  # it swelled in plane
+
+
+def test_a_load_that_is_not_mu_or_the_stretch_is_rejected():
+    with pytest.raises(ValueError, match="load must be one of"):
+        wedge_plate(2.0, 5, maxh=0.3, order=2, load="mismatch")
+
+
+@pytest.mark.slow  # 16 min on the shared machine (one thread)
+def test_the_relaxation_path_leaves_the_flat_wedge_where_it_buckles_and_ends_on_a_stable_k_fold_state(tmp_path):
+    """Load steps in mu (0.1 kT) from the flat k = 5 wedge at mu = -0.3: the flat state is stable
+    below its onset, so the first steps are Newton's; past the onset (mu ~ -0.29 on the full
+    disk at h = 0.2) Newton's equilibrium is the unstable flat one or none, and the flow relaxes to
+    a buckled state. At mu = 0 the end state must be stable on the wedge, carry the wedge's wave
+    number on the rim, and lie below the flat wedge's energy there."""
+    shell, mesh = wedge_plate(2.0, 5, maxh=0.3, order=2, load="mu")
+    run_dir = RunDirectory(tmp_path / "relax")
+    path = relax_wedge(shell, mesh, 5, run_dir=run_dir, mu_start=-0.35, step=0.1)
+    assert shell.mu_value() == 0.0
+    assert path["snaps"], "the flat wedge must lose stability before mu = 0"
+    with ngs.TaskManager():
+        assert negative_count(free_matrix(shell.tangent(shell.state), shell.free_mask)) == 0
+    assert path["rim_end"]["rim_k"] % 5 == 0
+    assert path["rim_end"]["rim_amplitude"] > shell.thickness
+    flat, _ = wedge_plate(2.0, 5, maxh=0.3, order=2, load="mu")
+    for mu in (-0.35, -0.2, -0.1, -0.03, -0.01, 0.0):
+        flat.mu.Set(mu)
+        flat.solve()
+    assert path["energy_wedge"] < flat.energy()
