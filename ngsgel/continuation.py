@@ -34,9 +34,10 @@ from typing import Literal
 import numpy as np
 import ngsolve as ngs
 
+from . import parallel
 from .newton import LinearSolver, NewtonError, NewtonResult, Work, newton, total_work
-from .output import report_progress
-from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix, mode_function,
+from .output import report_progress, writing_process
+from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix,
                         negative_count, spectrum, state_rate)
 from .stepping import RampError, ramp
 
@@ -141,7 +142,9 @@ class Checkpoint:
     (``points``, ``events``; ``steps`` taken), the Newton floor the run used (``atol``) and, once
     the path has ended, why (``stop_reason``; ``message`` of the ``ContinuationError`` of a path
     that stalled). ``load`` gives the events' critical modes as dof vectors (a GridFunction
-    needs the problem's space: ``follow_path`` makes them GridFunctions again)."""
+    needs the problem's space: ``follow_path`` makes them GridFunctions again).
+    ``ranks``: the number of MPI processes that wrote it (1: a serial run); the states are each
+    rank's own dofs, so a checkpoint restarts on that many processes only."""
 
     method: str
     parameter: float
@@ -156,32 +159,50 @@ class Checkpoint:
     events: list[Event] = field(default_factory=list)
     stop_reason: str = ""
     message: str = ""
+    ranks: int = 1
 
-    def save(self, path: str | Path) -> None:
+    def save(self, path: str | Path, *, comm=None) -> None:
+        """Write the ``.npz`` file; with an mpi4py ``comm`` of several ranks (a distributed
+        problem's) every rank's states and path (its modes and kept states are its own dofs) are
+        gathered and rank 0 writes them, as ``state_rank<r>`` etc."""
         # the path so far as a pickle in a byte array: the file loads without allow_pickle
         events = [replace(e, mode=None if e.mode is None else e.mode.vec.FV().NumPy().copy()) for e in self.events]
         path_so_far = pickle.dumps((self.points, events, self.stop_reason, self.message))
-        np.savez(path, method=self.method, parameter=self.parameter, state=self.state,
+        own = {"state": self.state,
+               "previous_state": self.state * np.nan if self.previous_state is None else self.previous_state,
+               "path": np.frombuffer(path_so_far, dtype=np.uint8)}
+        if comm is not None and comm.size > 1:
+            parts = comm.gather(own, root=0)
+            if comm.rank != 0:
+                return
+            own = {f"{key}_rank{rank}": value for rank, part in enumerate(parts) for key, value in part.items()}
+            own["ranks"] = comm.size
+        np.savez(path, method=self.method, parameter=self.parameter,
                  previous_parameter=np.nan if self.previous_parameter is None else self.previous_parameter,
-                 previous_state=self.state * np.nan if self.previous_state is None else self.previous_state,
                  step=self.step, scale=np.nan if self.scale is None else self.scale, steps=self.steps,
-                 atol=np.nan if self.atol is None else self.atol,
-                 path=np.frombuffer(path_so_far, dtype=np.uint8))
+                 atol=np.nan if self.atol is None else self.atol, **own)
 
     @classmethod
     def load(cls, path: str | Path) -> Checkpoint:
         data = np.load(path)
         prev = float(data["previous_parameter"])
         scale = float(data["scale"])
-        checkpoint = cls(method=str(data["method"]), parameter=float(data["parameter"]), state=data["state"],
+        ranks, own = int(data["ranks"]) if "ranks" in data else 1, ""
+        if ranks > 1:  # this rank's part of a distributed run's checkpoint
+            comm = parallel.world()
+            if comm.size != ranks:
+                raise ValueError(f"the checkpoint {path} was written by {ranks} MPI processes, this run has "
+                                 f"{comm.size}: a checkpoint restarts on the number of processes that wrote it")
+            own = f"_rank{comm.rank}"
+        checkpoint = cls(method=str(data["method"]), parameter=float(data["parameter"]), state=data["state" + own],
                          previous_parameter=None if math.isnan(prev) else prev,
-                         previous_state=None if math.isnan(prev) else data["previous_state"],
-                         step=float(data["step"]), scale=None if math.isnan(scale) else scale)
-        if "path" in data:  # older checkpoints hold the states only: enough for restart, not for resume
+                         previous_state=None if math.isnan(prev) else data["previous_state" + own],
+                         step=float(data["step"]), scale=None if math.isnan(scale) else scale, ranks=ranks)
+        if "path" + own in data:  # older checkpoints hold the states only: enough for restart, not for resume
             atol = float(data["atol"])
             checkpoint.steps, checkpoint.atol = int(data["steps"]), None if math.isnan(atol) else atol
             checkpoint.points, checkpoint.events, checkpoint.stop_reason, checkpoint.message = pickle.loads(
-                data["path"].tobytes())
+                data["path" + own].tobytes())
         return checkpoint
 
 
@@ -211,7 +232,7 @@ class Resumption:
     def end_leg(cls, latest: str | Path, leg: int) -> None:
         """The leg ``leg`` (whose checkpoint ``latest`` holds, unless a resumed run took it from
         its own file) has ended and another follows."""
-        if not cls.leg_file(latest, leg).exists():
+        if writing_process() and not cls.leg_file(latest, leg).exists():
             os.replace(latest, cls.leg_file(latest, leg))
 
     def take(self, latest: str | Path, leg: int = 0) -> Checkpoint | None:
@@ -513,7 +534,10 @@ class _Driver:
         self.stop_reason = ""
         self.message = ""  # of the ContinuationError of a path that stalled
         self._pending: tuple[str, ...] = ()  # events of the next recorded point
-        self._mass = free_matrix(mass_matrix(problem), problem.free_mask) if stability else None
+        # on a distributed mesh the stability checks go through ngsgel.parallel (over all ranks)
+        self._distributed = parallel.runs_distributed(problem)
+        self._mass = None if not stability else mass_matrix(problem) if self._distributed else free_matrix(
+            mass_matrix(problem), problem.free_mask)
         self.step_work: list[PathStep] = []
         self._work: list[Work] = []  # of the step under way
         solver = getattr(problem, "_solver", None)
@@ -537,8 +561,13 @@ class _Driver:
             self.solver.factor(matrix)
             work.factorisation, work.factorisations = clock() - t, 1
             ldlt = self.solver.ldlt  # None where pivots were perturbed: SuperLU counts instead
-        K = free_matrix(matrix, self.problem.free_mask)
-        if eigenpairs or self.stability.eigenvalues:
+        K = None if self._distributed else free_matrix(matrix, self.problem.free_mask)
+        if self._distributed:  # the count over all ranks; eigenpairs solved on rank 0, modes globally numbered
+            found = parallel.spectrum(self.problem, matrix=matrix, mass=self._mass, count=self.stability.eigenvalues,
+                                      past_negative=True) if eigenpairs or self.stability.eigenvalues else Spectrum(
+                eigenvalues=np.empty(0), modes=np.empty((self.problem.reductions.free_count, 0)),
+                negative=parallel.negative_count(self.problem, matrix=matrix))
+        elif eigenpairs or self.stability.eigenvalues:
             found = spectrum(self.problem, count=self.stability.eigenvalues, K=K, M=self._mass,
                              past_negative=True, factorisation=ldlt)
         else:
@@ -665,13 +694,13 @@ class _Driver:
             return unlocated({"locate_failed": str(err)})
         index = min(before, after)
         eigenvalue, phi = critical.spectrum.crossing(index)
-        rate = load_rate(self.problem, self.parameter)
+        rate = parallel.load_rate(self.problem, self.parameter)
         projection = load_projection(phi, rate)
         kind = "bifurcation" if projection < self.stability.bifurcation_threshold else "limit point"
         event = Event(kind=kind, step=self.steps, parameter=critical.parameter, negative_before=before,
                       negative_after=after, energy=self.problem.energy(), eigenvalue=eigenvalue,
                       load_projection=projection, parameter_error=error,
-                      mode=mode_function(self.problem, phi, name=f"critical_mode_{len(self.events)}"),
+                      mode=parallel.mode_function(self.problem, phi, name=f"critical_mode_{len(self.events)}"),
                       state=critical.state)
         self.events.append(event)
         located = [(critical, kind)]
@@ -785,7 +814,8 @@ class _Driver:
                           previous_parameter=None if previous is None else previous.parameter,
                           previous_state=None if previous is None else previous.state, step=step, scale=scale,
                           steps=self.steps, atol=self.newton_options["atol"], points=list(self.points),
-                          events=list(self.events), stop_reason=self.stop_reason, message=self.message)
+                          events=list(self.events), stop_reason=self.stop_reason, message=self.message,
+                          ranks=self.problem.mesh.comm.size if self._distributed else 1)
 
     def keep(self, method: str, current: _Converged, previous: _Converged | None, step: float,
              scale: float | None) -> Checkpoint:
@@ -794,8 +824,9 @@ class _Driver:
         checkpoint = self.checkpoint(method, current, previous, step, scale)
         if self.checkpoint_file is not None:
             partial = self.checkpoint_file.with_name(self.checkpoint_file.stem + ".partial.npz")
-            checkpoint.save(partial)
-            os.replace(partial, self.checkpoint_file)
+            checkpoint.save(partial, comm=self.problem.mesh.comm.mpi4py if self._distributed else None)
+            if writing_process():  # on a distributed mesh rank 0 wrote every rank's part
+                os.replace(partial, self.checkpoint_file)
         return checkpoint
 
     def finish(self, method: str, current: _Converged, previous: _Converged | None, step: float,
@@ -886,6 +917,17 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
         raise ValueError("a stabilised path cannot be resumed: the checkpoint does not hold its damping")
     if checkpoint_file is not None and Path(checkpoint_file).suffix != ".npz":
         raise ValueError(f"checkpoint_file must end in .npz, got {str(checkpoint_file)!r}")
+    if parallel.runs_distributed(problem) and (method != "natural" or stabilization is not None
+                                               or (stability is not None and stability.switch)):
+        raise NotImplementedError(
+            "on a distributed mesh follow_path runs method='natural' without stabilization or branch switching: "
+            "the arclength corrector, the damping and the switch solve with a serial LinearSolver on this "
+            f"rank's dofs (got method={method!r}, stabilization={stabilization!r}, "
+            f"switch={stability is not None and stability.switch})")
+    processes = problem.mesh.comm.size if parallel.runs_distributed(problem) else 1
+    if start is not None and start.ranks != processes:
+        raise ValueError(f"the checkpoint was written by {start.ranks} MPI process(es), this problem runs on "
+                         f"{processes}: a checkpoint restarts on the number of processes that wrote it")
     min_step = step * 1e-6 if min_step is None else min_step
     max_step = step * 10 if max_step is None else max_step
     if start is not None:
@@ -898,7 +940,8 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     else:
         # the floor also for the first solve: a start that is already an equilibrium has a residual
         # at round-off, which no relative tolerance can reduce further
-        newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(load_rate(problem, parameter).residual)))
+        newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(
+            parallel.load_rate(problem, parameter).residual)))
     first = problem.solve(**newton_options) if resume is None else None
     driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
                      vtk_every=vtk_every, progress=progress, target=target, keep_states=keep_states, stop=stop,

@@ -19,10 +19,15 @@ import ngsolve as ngs
 
 from . import linalg
 
-__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver", "Work", "WorkCounts", "total_work"]
+__all__ = ["NonlinearSystem", "NewtonResult", "NewtonError", "newton", "LinearSolver", "FreeDofReductions", "Work",
+           "WorkCounts", "total_work"]
 
 
 class NonlinearSystem(Protocol):
+    """``free_mask``: this process's free dofs. A system on a distributed mesh also has
+    ``reductions`` (``ngsgel.parallel.DistributedReductions``): the norms and tests over all
+    processes; without it ``newton`` uses ``FreeDofReductions(free_mask)``."""
+
     state: ngs.BaseVector
     free_mask: np.ndarray
 
@@ -115,6 +120,34 @@ class NewtonError(RuntimeError):
         self.result = result
 
 
+class FreeDofReductions:
+    """Newton's norms and tests of one process's vectors: the free-dof norm, the largest entry,
+    whether any entry is nonzero, a sum and a maximum (of one number: the identity), the free-dof
+    count."""
+
+    def __init__(self, free_mask: np.ndarray):
+        self.free_mask = free_mask
+
+    @property
+    def free_count(self) -> int:
+        return int(self.free_mask.sum())
+
+    def sum(self, value: float) -> float:
+        return value
+
+    def max(self, value: float) -> float:
+        return value
+
+    def free_norm(self, v: ngs.BaseVector) -> float:
+        return float(np.linalg.norm(v.FV().NumPy()[self.free_mask]))
+
+    def max_abs(self, values: np.ndarray) -> float:
+        return float(np.max(np.abs(values), initial=0.0))
+
+    def any(self, values: np.ndarray) -> bool:
+        return bool(values.any())
+
+
 class LinearSolver:
     """Sparse direct solve on the free dofs that keeps its symbolic factorisation between calls
     as long as the matrix object stays the same.
@@ -131,6 +164,9 @@ class LinearSolver:
         self._matrix = None
         self._inv = None
         self._pardiso = None
+        # seconds of the last full Newton iteration that used this solver (assembly, factorisation,
+        # solve, residual): what a chord step's saving is weighed against
+        self.iteration_seconds: float | None = None
 
     @property
     def current(self):
@@ -169,7 +205,7 @@ REFERENCES = ("max", "start")
 def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
            xtol: float = 1e-13, reference: str | float = "max", maxit: int = 30, min_step: float = 2.0**-12,
            raise_on_failure: bool = True, reuse_factorisation: bool = False, chord_start: bool = False,
-           chord_rate: float = 0.25, stall_window: int | None = None) -> NewtonResult:
+           chord_rate: float = 0.25, chord_pacing: bool = False, stall_window: int | None = None) -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
 
     Converged, once the prescribed values are met, when one of these holds (``criterion`` of the
@@ -199,7 +235,12 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     factorisation (of an earlier tangent, possibly from an earlier solve), which costs a solve and
     a residual instead of an assembly and a factorisation; the step is kept only if it is
     admissible and cuts the free residual norm by at least ``chord_rate``, otherwise the iteration
-    is a full Newton one (assembly, factorisation, line search). Only a full step can meet
+    is a full Newton one (assembly, factorisation, line search). With ``chord_pacing`` a kept
+    chord step is followed by another only while chord steps pay: their observed contraction and
+    time, projected to the tolerance, against as many full iterations as needed (each roughly
+    squaring the relative residual) at the time the solver's last full iteration took
+    (``LinearSolver.iteration_seconds``), so a slowly contracting chord hands over to Newton. The
+    iterations then depend on measured times: a run does not repeat bit for bit. Only a full step can meet
     ``xtol``. Tried while the prescribed values are met, and not again after a rejected chord
     step until the next factorisation. ``iterations`` (and ``maxit``) count the full Newton
     iterations, ``chord_steps`` the kept chord steps; their number is bounded since each cuts the
@@ -225,6 +266,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         raise ValueError(f"reference must be 'max', 'start' or a finite number >= 0, got {reference!r}")
     x = system.state
     free = system.free_mask
+    reductions = getattr(system, "reductions", None) or FreeDofReductions(free)
     x0 = x.CreateVector()
     x0.data = x
     r = x.CreateVector()
@@ -234,9 +276,6 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     r_trial = x.CreateVector()
     result = NewtonResult(converged=False, iterations=0)
     clock = time.perf_counter
-
-    def free_norm(v: ngs.BaseVector) -> float:
-        return float(np.linalg.norm(v.FV().NumPy()[free]))
 
     def fail(message: str) -> NewtonResult:
         x.data = x0
@@ -256,7 +295,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         system.residual(point, out)
         work.residual += clock() - start
         work.residual_evaluations += 1
-        return free_norm(out)
+        return reductions.free_norm(out)
 
     def apply_inverse(inv, rhs: ngs.BaseVector, out: ngs.BaseVector, work: Work) -> None:
         start = clock()
@@ -268,6 +307,21 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         work.total = clock() - started
         work.residual_norm = rnorm
         result.records.append(work)
+
+    def chord_pays(rate: float, chord_seconds: float) -> bool:
+        """Whether more chord steps at the observed ``rate`` reach the tolerance sooner than full
+        iterations would: the chord converges linearly, Newton roughly squares the relative
+        residual per iteration (both counted from here to ``tolerance()``)."""
+        if solver.iteration_seconds is None or rate <= 0.0 or not 0.0 < tolerance() < rnorm:
+            return True  # nothing measured yet, or nothing left to estimate
+        digits_left = math.log(rnorm / tolerance())
+        chord_steps = math.ceil(digits_left / -math.log(rate))
+        relative_now = min(rnorm / max(r_max, rnorm), 0.5)  # Newton's progress needs a residual < r_max
+        newton_iterations = max(1, math.ceil(math.log2(math.log(tolerance() / max(r_max, rnorm))
+                                                       / math.log(relative_now))))
+        # the slowest process's times (one process: its own), so all processes decide alike
+        return (chord_steps * reductions.max(chord_seconds)
+                <= newton_iterations * reductions.max(solver.iteration_seconds))
 
     def relative() -> float:
         return rtol * (r_max if reference == "max" else r_start if reference == "start" else reference)
@@ -292,12 +346,12 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     result.residuals.append(rnorm)
     chord_ok = (reuse_factorisation or chord_start) and solver.current is not None
     # free residual norm after every full iteration since the prescribed values are met
-    after_iteration = [] if mismatch.any() else [rnorm]
+    after_iteration = [] if reductions.any(mismatch) else [rnorm]
     for it in range(maxit + 1):
         while True:  # convergence test, then chord steps while they pay
             if not math.isfinite(rnorm):
                 return fail(f"residual is not finite at iteration {it}")
-            met = not mismatch.any()
+            met = not reductions.any(mismatch)
             if met and rnorm <= tolerance():
                 return converge("residual" if rnorm <= relative() else "floor")
             if not (chord_ok and met):
@@ -311,12 +365,14 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
                 close(work, started, math.nan)
                 chord_ok = False  # until the next factorisation
                 break
+            rate = rn_trial / rnorm if rnorm > 0 else 0.0
             x.data = trial
             r.data = r_trial
             rnorm = rn_trial
             result.residuals.append(rnorm)
             result.chord_steps += 1
             close(work, started, rnorm)
+            chord_ok = not chord_pacing or chord_pays(rate, work.total)
         if it == maxit:
             break
         started, work = clock(), Work("newton")
@@ -339,7 +395,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         work.solve += clock() - t
         apply_inverse(inv, trial, r_trial, work)
         dx.data -= r_trial
-        step_max = float(np.max(np.abs(dx.FV().NumPy()), initial=0.0))
+        step_max = reductions.max_abs(dx.FV().NumPy())
         alpha = 1.0
         while True:
             trial.data = x + alpha * dx
@@ -367,9 +423,10 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         result.residuals.append(rnorm)
         result.iterations = it + 1
         close(work, started, rnorm)
-        if alpha == 1.0 and step_max <= xtol and not mismatch.any():
+        solver.iteration_seconds = work.total - work.line_search
+        if alpha == 1.0 and step_max <= xtol and not reductions.any(mismatch):
             return converge("increment")
-        if not mismatch.any():
+        if not reductions.any(mismatch):
             after_iteration.append(rnorm)
         if (stall_window is not None and len(after_iteration) > stall_window
                 and rnorm > 0.5 * after_iteration[-1 - stall_window]):

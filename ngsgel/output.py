@@ -5,6 +5,8 @@ per step (and mirrors it as JSON lines) and flushes, so a stopped run keeps what
 ``VTKSeries`` writes ParaView files of named fields with a ``.pvd`` index over time or load.
 ``Progress`` prints status lines (with percent done and time left where the driver knows them);
 ``report_progress`` is how the drivers call a user's ``progress``.
+In an MPI run (``ngsgel.parallel``) rank 0 writes the folder, the histories and the progress
+(``writing_process``); every rank keeps a history's rows and writes its own VTK piece.
 ``scene_parser`` gives every scene script the same ``--out``/``--quick``/``--quiet`` flags (and the
 gel's and the bath's parameters for swelling scenes) and ``SceneHelpFormatter``'s help, which shows
 every option's default; ``quick_run`` adds the CI environment to ``--quick``; ``silence_progress``
@@ -29,7 +31,16 @@ from pathlib import Path
 import ngsolve as ngs
 
 __all__ = ["RunDirectory", "History", "VTKSeries", "Progress", "report_progress", "silence_progress",
-           "SceneHelpFormatter", "scene_parser", "quick_run", "command_options", "resume_arguments"]
+           "SceneHelpFormatter", "scene_parser", "quick_run", "command_options", "resume_arguments",
+           "writing_process"]
+
+
+def writing_process() -> bool:
+    """Whether this process writes the run's files and progress: any process of a serial run,
+    rank 0 of an MPI run (one that loaded mpi4py's MPI, as ``ngsgel.parallel`` does; every rank
+    runs the same script, and one copy of each file and line is wanted)."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    return mpi is None or mpi.COMM_WORLD.rank == 0
 
 
 def _jsonable(value):
@@ -62,6 +73,8 @@ class RunDirectory:
                                  f"({ {key: stored.get(key) for key in differ} } against "
                                  f"{ {key: now.get(key) for key in differ} }): it cannot be resumed")
             return
+        if not writing_process():
+            return
         self.path.mkdir(parents=True, exist_ok=True)
         if params is not None:
             self.write_json("params.json", params)
@@ -81,8 +94,10 @@ class RunDirectory:
         return self.file(f"{stem}_resumed{n}")
 
     def write_json(self, name: str, data) -> Path:
+        """``data`` as ``name`` (by the writing process only, ``writing_process``)."""
         target = self.file(name)
-        target.write_text(json.dumps(_jsonable(data), indent=2, default=str) + "\n")
+        if writing_process():
+            target.write_text(json.dumps(_jsonable(data), indent=2, default=str) + "\n")
         return target
 
 
@@ -90,39 +105,45 @@ class History:
     """Step-by-step table: ``append(row)`` writes a CSV line and a JSON line and flushes.
 
     The columns are fixed by the first row; later rows may leave some out (written empty) but
-    may not add new ones, so the CSV stays rectangular.
+    may not add new ones, so the CSV stays rectangular. Only the writing process
+    (``writing_process``) writes the files; every process keeps the ``rows``.
     """
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         self.rows: list[dict] = []
         self._columns: list[str] | None = None
-        self._csv = open(self.path, "w", newline="")
-        self._jsonl = open(self.path.with_suffix(".jsonl"), "w")
+        self._files = writing_process()
+        if self._files:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._csv = open(self.path, "w", newline="")
+            self._jsonl = open(self.path.with_suffix(".jsonl"), "w")
         self._writer = None
 
     def append(self, row: Mapping) -> None:
         row = {k: _jsonable(v) for k, v in row.items()}
         if self._columns is None:
             self._columns = list(row)
-            self._writer = csv.DictWriter(self._csv, fieldnames=self._columns)
-            self._writer.writeheader()
+            if self._files:
+                self._writer = csv.DictWriter(self._csv, fieldnames=self._columns)
+                self._writer.writeheader()
         extra = set(row) - set(self._columns)
         if extra:
             raise ValueError(f"row has columns {sorted(extra)} not in the history's columns {self._columns}")
-        self._writer.writerow({k: (json.dumps(v) if isinstance(v, (list, dict)) else v) for k, v in row.items()})
-        self._jsonl.write(json.dumps(row, default=str) + "\n")
-        self._csv.flush()
-        self._jsonl.flush()
+        if self._files:
+            self._writer.writerow({k: (json.dumps(v) if isinstance(v, (list, dict)) else v) for k, v in row.items()})
+            self._jsonl.write(json.dumps(row, default=str) + "\n")
+            self._csv.flush()
+            self._jsonl.flush()
         self.rows.append(row)
 
     def column(self, name: str) -> list:
         return [row.get(name) for row in self.rows]
 
     def close(self) -> None:
-        self._csv.close()
-        self._jsonl.close()
+        if self._files:
+            self._csv.close()
+            self._jsonl.close()
 
     def __enter__(self):
         return self
@@ -134,7 +155,9 @@ class History:
 class VTKSeries:
     """ParaView output of named fields, one ``.vtu`` per call of ``write(time)``, indexed by a
     ``.pvd`` file rewritten after each write (readable while the run goes on). A mesh without
-    volume elements (a shell's mid-surface in 3D) writes its surface elements."""
+    volume elements (a shell's mid-surface in 3D) writes its surface elements. On a distributed
+    mesh every rank calls ``write`` and NGSolve writes one ``.vtu`` piece per rank holding elements
+    (``<name>_proc<rank>[_step<n>].vtu``) and the ``.pvd`` index of all pieces."""
 
     def __init__(self, mesh: ngs.Mesh, fields: Mapping[str, ngs.CoefficientFunction], path: str | Path,
                  *, subdivision: int = 1):
@@ -142,7 +165,7 @@ class VTKSeries:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._vtk = ngs.VTKOutput(mesh, coefs=list(fields.values()), names=list(fields.keys()),
                                   filename=str(self.path), subdivision=subdivision)
-        self._vb = ngs.VOL if mesh.ne > 0 else ngs.BND
+        self._vb = ngs.VOL if mesh.comm.Sum(mesh.ne) > 0 else ngs.BND  # over all ranks: rank 0 holds none
         self.times: list[float] = []
 
     def write(self, time: float) -> None:
@@ -187,7 +210,8 @@ class Progress:
     until a second report has a larger fraction. A fraction below the previous one starts a new
     count: one ``Progress`` followed through several load paths.
 
-    ``quiet=True`` prints nothing; ``quiet=None`` (default) is quiet inside ``silence_progress()``.
+    ``quiet=True`` prints nothing; ``quiet=None`` (default) is quiet inside ``silence_progress()``
+    and on every rank of an MPI run but the writing one (``writing_process``).
     ``clock`` returns seconds (tests pass a fake one).
     """
 
@@ -197,7 +221,7 @@ class Progress:
             raise ValueError(f"window must be an integer >= 1, got {window!r}")
         self.label = label
         self.stream = stream or sys.stderr
-        self.quiet = _SILENCED.get() if quiet is None else quiet
+        self.quiet = (_SILENCED.get() or not writing_process()) if quiet is None else quiet
         self.clock = clock
         self.start = clock()
         self._recent: deque[tuple[float, float]] = deque(maxlen=window + 1)  # (clock, fraction)

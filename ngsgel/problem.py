@@ -13,6 +13,7 @@ state, ``axial_stretch()`` is ``1 + e`` and ``parts(gf)`` splits any GridFunctio
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from numbers import Real
@@ -23,7 +24,8 @@ import ngsolve as ngs
 from .contact import SelfContact
 from .kinematics import Kinematics
 from .materials import FloryRehnerGel, Material, check_reference_stretch
-from .newton import LinearSolver, NewtonResult, newton
+from . import parallel
+from .newton import FreeDofReductions, LinearSolver, NewtonResult, newton
 
 __all__ = ["EquilibriumProblem", "GelBody"]
 
@@ -136,9 +138,14 @@ class GelBody(BuiltOnDemand):
     admissible set ``J > 1`` (the mixing pressure is ``-inf`` at ``J = 1``), so set a swollen
     starting displacement before the first solve."""
 
+    runs_distributed = False  # on an MPI-distributed mesh (ngsgel.parallel): EquilibriumProblem only, so far
+
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
                  materials: Mapping[str, Material] | Material, lam0: Lam0 | None = None, order: int = 2,
                  quadrature_order: int | None = None):
+        if parallel.is_distributed(mesh) and not self.runs_distributed:
+            raise ValueError(f"{type(self).__name__} does not run on a distributed mesh yet; EquilibriumProblem "
+                             "does (docs/parallel.md)")
         kinematics.check_mesh(mesh)
         if not isinstance(order, int) or order < 1:
             raise ValueError(f"order must be an integer >= 1, got {order!r}")
@@ -350,11 +357,47 @@ class GelBody(BuiltOnDemand):
         values = {name: mat.reference_cauchy(Fp, mu, self.lam0_of(name)) for name, mat in self.materials.items()}
         return self.mesh.MaterialCF(values)
 
-    def margin_indicator(self, u, axial=None) -> ngs.CoefficientFunction:
-        """1 where the state is outside a material's admissible set, 0 inside."""
+    def outside_count(self, space, u, axial=None) -> ngs.BilinearForm:
+        """A form whose ``Energy(x)`` is zero exactly when the state ``x`` is inside every
+        material's admissible set (J > 1 for a gel) at the points where the energy is evaluated.
+
+        It tests the points the energy sees (same regions, weights and rules), no more: a finer
+        rule (order 2p + 2 did) also tests points the energy never sees, and near a singular
+        corner (a bonded block's base corners, issue 35) the discrete equilibrium is outside
+        J > 1 at some of them, so Newton stalled against a boundary of no physical meaning."""
         Fp = self.deformation_gradient(u, axial)
-        values = {name: ngs.IfPos(mat.margin(Fp, self.lam0_of(name)), 0.0, 1.0) for name, mat in self.materials.items()}
-        return self.mesh.MaterialCF(values)
+        form = ngs.BilinearForm(space, symmetric=True)
+        form += ngs.Variation(self.region_sum(lambda mat, name: ngs.IfPos(mat.margin(Fp, self.lam0_of(name)), 0.0, 1.0)))
+        return form
+
+
+CHORD_MIN_FREE_DOFS = 20000
+
+
+def chord_steps_pay(dim: int, free_dofs: int) -> bool:
+    """Whether Newton should first try chord steps with the last factorisation (``newton``'s
+    ``reuse_factorisation``, paced by measured times: ``chord_pacing``): on 3D meshes of at least
+    ``CHORD_MIN_FREE_DOFS`` free dofs, where a full iteration (assembly and factorisation) costs
+    several chord steps (a residual and a solve each). Measured on issue 35's bonded gel block
+    (order 2, 20-step ramp, one thread, docs/benchmarks.md): 28k unknowns, paced chord steps 23.9 s
+    against 36.9 s of full Newton (unpaced chord steps, which continue while each cuts the
+    residual 4x, took 47 s: ~18 cheap steps where 3 full ones do); 53k 0.55x. On small meshes a
+    factorisation is cheap, and chord steps stop at the tolerance asked for where a last full
+    Newton step lands far below it: that accuracy costs little there and is kept, and runs repeat
+    bit for bit (pacing depends on times). 2D and 1D problems keep full Newton (not measured to
+    pay; their validated paths stay as they were). The choice is logged once per kind."""
+    pays = dim == 3 and free_dofs >= CHORD_MIN_FREE_DOFS
+    reason = ("chord steps with the last factorisation before each full Newton iteration (3D, "
+              f"at least {CHORD_MIN_FREE_DOFS} free dofs)" if pays else
+              f"full Newton iterations ({dim}D" + (f", fewer than {CHORD_MIN_FREE_DOFS} free dofs)" if dim == 3 else ")"))
+    if reason not in _logged_choices:
+        _logged_choices.add(reason)
+        _log.info("reuse_factorisation='auto': %s; EquilibriumProblem(reuse_factorisation=...) overrides", reason)
+    return pays
+
+
+_log = logging.getLogger("ngsgel.problem")
+_logged_choices: set[str] = set()
 
 
 class EquilibriumProblem(GelBody):
@@ -370,10 +413,16 @@ class EquilibriumProblem(GelBody):
         prob.mu.Set(0.0); prob.solve()
     """
 
+    runs_distributed = True
+
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
                  materials: Mapping[str, Material] | Material, lam0: Lam0 | None = None, mu=0.0, order: int = 2,
-                 inverse: str = "auto", quadrature_order: int | None = None):
+                 inverse: str = "auto", quadrature_order: int | None = None,
+                 reuse_factorisation: bool | str = "auto"):
         # inverse: ngsgel.newton.LinearSolver's ("auto": MKL PARDISO where installed, else sparsecholesky)
+        # reuse_factorisation: solve's default of newton's option; "auto": chord_steps_pay decides
+        if reuse_factorisation not in (True, False, "auto"):
+            raise ValueError(f"reuse_factorisation must be True, False or 'auto', got {reuse_factorisation!r}")
         super().__init__(mesh, kinematics=kinematics, materials=materials, lam0=lam0, order=order,
                          quadrature_order=quadrature_order)
         if isinstance(mu, Real):
@@ -383,8 +432,17 @@ class EquilibriumProblem(GelBody):
             raise ValueError(f"mu must be a number, a Parameter or a CoefficientFunction, got {type(mu).__name__}")
         self.mu = mu
         self.inverse = inverse
+        self._reuse_factorisation = reuse_factorisation
         self._tractions: list[tuple[str, ngs.CoefficientFunction]] = []
         self._form = None
+
+    @property
+    def reuse_factorisation(self) -> bool:
+        """``solve``'s default of Newton's ``reuse_factorisation`` (``"auto"`` resolved)."""
+        if self._reuse_factorisation != "auto":
+            return self._reuse_factorisation
+        self.form  # the free dofs
+        return chord_steps_pay(self.mesh.dim, self.reductions.free_count)
 
     def _check_mu(self, mu: float) -> None:
         for mat in self.materials.values():
@@ -415,21 +473,25 @@ class EquilibriumProblem(GelBody):
         self._attach_self_contacts(form, u, V, lambda gf: self.parts(gf)[0])
         self._form = form
         self.gf = ngs.GridFunction(V, name="displacement")
-        self._scratch = ngs.GridFunction(V)
         self._target = ngs.GridFunction(V)
         self._renew_free_dofs()
-        self._indicator = self.margin_indicator(*self.parts(self._scratch))
-        self._indicator_order = 2 * self.order + 2
+        self._outside = self.outside_count(V, u, axial)
 
     def _renew_free_dofs(self) -> None:
         V = self.space
         self.free_mask = np.array(list(V.FreeDofs()), dtype=bool)
-        self._solver = LinearSolver(V.FreeDofs(), inverse=self.inverse)
+        if parallel.is_distributed(self.mesh):  # a parallel solver, norms and sums over all ranks
+            self._solver, self.reductions = parallel.newton_parts(self)
+        else:
+            self._solver = LinearSolver(V.FreeDofs(), inverse=self.inverse)
+            self.reductions = FreeDofReductions(self.free_mask)
 
     def fix_dof(self, dof: int) -> None:
         """Fix one degree of freedom (e.g. a vertex's displacement component, see
         ``ngsgel.supports.vertex_dof``) at zero like ``fix``, also after the problem has been built
         and solved (the next solve moves it to zero; the free-dof mask and the solver are renewed)."""
+        if parallel.is_distributed(self.mesh):
+            raise ValueError("fix_dof takes a dof number of one process: not on a distributed mesh")
         free = self.space.FreeDofs()
         if not 0 <= dof < len(free):
             raise ValueError(f"dof must be in [0, {len(free)}), got {dof!r}")
@@ -455,7 +517,8 @@ class EquilibriumProblem(GelBody):
     def energy(self, x=None) -> float:
         x = self.state if x is None else x
         self._update_self_contacts(x)
-        return self.form.Energy(x)
+        energy = self.form.Energy(x)
+        return self.reductions.sum(energy)  # on a distributed mesh: each rank's subdomain summed
 
     def prescribed(self, out) -> None:
         out[:] = 0.0
@@ -468,9 +531,7 @@ class EquilibriumProblem(GelBody):
         out.data = self._target.vec
 
     def admissible(self, x) -> bool:
-        self._scratch.vec.data = x
-        bad = ngs.Integrate(self._indicator, self.mesh, order=self._indicator_order)
-        return bool(bad == 0.0)
+        return bool(self.reductions.sum(self._outside.Energy(x)) == 0.0)
 
     # Round-off of the residual: each entry sums stress terms times shape-function gradients,
     # and the terms are of the size of the energy density at strains of order one (a gel's
@@ -501,16 +562,20 @@ class EquilibriumProblem(GelBody):
                  + ngs.Norm(mat.reference_energy(2 * ngs.Id(3), self.mu, self.lam0_of(name)))
                  for name, mat in self.materials.items()}
         energy = self.integrate(self.mesh.MaterialCF(sizes))
-        free, d = int(self.free_mask.sum()), self.mesh.dim
+        free, d = self.reductions.free_count, self.mesh.dim
         measure = self.integrate(ngs.CF(1.0))
         return self.ROUND_OFF_FACTOR * np.finfo(float).eps * energy * free ** (1 / d - 0.5) / measure ** (1 / d)
 
     def solve(self, **newton_options) -> NewtonResult:
         """Newton at the current parameter values (``ngsgel.newton.newton``'s options; ``atol``
-        defaults to ``residual_floor``); raises ``NewtonError`` on failure."""
+        defaults to ``residual_floor``, ``reuse_factorisation`` to the problem's); raises
+        ``NewtonError`` on failure."""
         self.form
         if "atol" not in newton_options:
             newton_options["atol"] = self.residual_floor
+        if "reuse_factorisation" not in newton_options:
+            newton_options["reuse_factorisation"] = self.reuse_factorisation
+            newton_options.setdefault("chord_pacing", self._reuse_factorisation == "auto")
         with ngs.TaskManager():  # threads assembly and factorisation; a no-op when already active
             return newton(self, self._solver, **newton_options)
 

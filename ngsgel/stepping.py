@@ -10,8 +10,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import ngsolve as ngs
 
-from .newton import LinearSolver, NewtonError, NewtonResult, Work, WorkCounts, total_work
+from .newton import FreeDofReductions, LinearSolver, NewtonError, NewtonResult, Work, WorkCounts, total_work
 from .output import report_progress
+from .parallel import DistributedSolver
 from .threads import using_threads
 
 __all__ = ["ramp", "tangent_predictor", "RampResult", "RampStep", "ValueReached", "RampError", "JumpError"]
@@ -254,9 +255,7 @@ def ramp(problem, parameter: ngs.Parameter, target: float | None = None, *, valu
             try:
                 newton_result = problem.solve(**options)
                 if max_correction is not None:
-                    free = problem.free_mask
-                    _check_correction(problem.save_state()[free], predicted[free], state[free], max_correction,
-                                      newton_result)
+                    _check_correction(problem, predicted, state, max_correction, newton_result)
             except NewtonError as err:
                 problem.restore_state(state)
                 parameter.Set(value)
@@ -311,10 +310,12 @@ def _solve_in_place(problem, parameter, value, goal, options, by_step, result, o
     return False
 
 
-def _check_correction(solution: np.ndarray, predicted: np.ndarray, start: np.ndarray, max_correction: float,
+def _check_correction(problem, predicted: np.ndarray, start: np.ndarray, max_correction: float,
                       newton_result: NewtonResult) -> None:
-    increment = float(np.linalg.norm(predicted - start))
-    correction = float(np.linalg.norm(solution - predicted))
+    """``JumpError`` where the problem's state lies farther from ``predicted`` than ``max_correction``
+    times the predicted increment from ``start`` (free dofs, over all ranks of a distributed mesh)."""
+    increment = _free_state_norm(problem, predicted - start)
+    correction = _free_state_norm(problem, problem.save_state() - predicted)
     if correction > max_correction * increment and increment > 0:
         raise JumpError(f"converged {correction / increment:.3g} predicted increments away from the predictor "
                         f"(max_correction {max_correction:g}): onto another branch", newton_result)
@@ -328,11 +329,23 @@ def _timed(work: Work, part: str, fn):
     return out
 
 
+def _reductions(problem):
+    """The problem's free-dof norms: over all ranks on a distributed mesh (as Newton's)."""
+    return getattr(problem, "reductions", None) or FreeDofReductions(problem.free_mask)
+
+
+def _free_state_norm(problem, values: np.ndarray) -> float:
+    """Free-dof norm of a difference of states (the values of every copy of a dof, as a state)."""
+    v = problem.state.CreateVector()  # a state's parallel status: each copy holds the dof's value
+    v.FV().NumPy()[:] = values
+    return _reductions(problem).free_norm(v)
+
+
 def _free_residual_norm(problem, work: Work) -> float:
     r = problem.state.CreateVector()
     _timed(work, "residual", lambda: problem.residual(problem.state, r))
     work.residual_evaluations += 1
-    return float(np.linalg.norm(r.FV().NumPy()[problem.free_mask]))
+    return _reductions(problem).free_norm(r)
 
 
 def _admissible(problem, work: Work) -> bool:
@@ -362,8 +375,9 @@ def tangent_predictor(problem, parameter: ngs.Parameter, new: float, *, work: Wo
     work = Work("predictor") if work is None else work
     x = problem.state
     K = _timed(work, "assembly", lambda: problem.tangent(x))
-    solver = getattr(problem, "_solver", None)  # the problem's own: symbolic factorisation reused
-    if not isinstance(solver, LinearSolver):
+    # the problem's own: symbolic factorisation reused; on a distributed mesh its parallel solver
+    solver = getattr(problem, "_solver", None)
+    if not isinstance(solver, (LinearSolver, DistributedSolver)):
         freedofs = ngs.BitArray(problem.free_mask.tolist())
         solver = LinearSolver(freedofs, inverse=getattr(problem, "inverse", "umfpack"))
     inv = _timed(work, "factorisation", lambda: solver.factor(K))

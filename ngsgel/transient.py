@@ -321,7 +321,6 @@ class TransientProblem(GelBody):
         self.gf = ngs.GridFunction(X, name="state")
         self._old = ngs.GridFunction(X)
         self._older = ngs.GridFunction(X)  # the state before the last step, for BDF2
-        self._scratch = ngs.GridFunction(X)
         self._target = ngs.GridFunction(X)
 
         # The energy's mu-derivative is minus the solvent content, -(J' - lam0^-3) q: Variation
@@ -371,7 +370,7 @@ class TransientProblem(GelBody):
 
         self.free_mask = np.array(list(X.FreeDofs()), dtype=bool)
         self._solver = LinearSolver(X.FreeDofs(), inverse=self.inverse)
-        self._indicator = self.margin_indicator(self._scratch.components[0])
+        self._outside = self.outside_count(X, u)
         # Residual entries are stresses and solvent volumes times element volumes, each O(1)
         # per unit volume, summed from terms of O(1) that cancel: near steady state a step's
         # relative tolerance would ask for less than their round-off. Measured floors: ~1e-15
@@ -427,8 +426,7 @@ class TransientProblem(GelBody):
                 gf.vec[el.dofs[0]] = value(self.mesh(*self.mesh[vertex].point))
 
     def admissible(self, x) -> bool:
-        self._scratch.vec.data = x
-        return bool(ngs.Integrate(self._indicator, self.mesh, order=2 * self.order + 2) == 0.0)
+        return bool(self._outside.Energy(x) == 0.0)
 
     # ------------------------------------------------------------------- time stepping
     def reset(self, *, equilibrium: EquilibriumProblem | None = None) -> None:

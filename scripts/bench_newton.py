@@ -25,7 +25,8 @@ older commit, unpacked) against this checkout's, in alternating fresh processes.
 and 2 threads, umfpack, MKL PARDISO on 1 and 2 threads where installed) the time of the first
 factorisation (analysis), a numeric refactorisation and a solve of its tangent; CG with BDDC on
 the condensed tangent (setup once, two solves); the 20-step
-ramp with the defaults (``inverse="auto"``) and with sparsecholesky, per ramp and per Newton
+ramp with the defaults (``inverse="auto"``, ``reuse_factorisation`` "auto": chord steps here),
+with full Newton iterations only, and with sparsecholesky, per ramp and per Newton
 iteration; and a path with stability tracking against the same path without
 (``follow_path``, natural, 5 steps): the mean step time untracked, with the default count-only
 check and with eigenpairs at every point, / untracked, from the ``PathResult.steps`` work records
@@ -353,13 +354,14 @@ def bddc_times(maxh: float) -> dict[str, float]:
     return times
 
 
-def issue35_ramp(maxh: float, inverse: str, reuse: bool = False) -> dict[str, float]:
+def issue35_ramp(maxh: float, inverse: str, reuse: bool | None = None) -> dict[str, float]:
     """The 20-step ramp (strict: no cut-back); a failed step ends it, and the times are those of
-    the steps before it (``steps`` says how many converged)."""
+    the steps before it (``steps`` says how many converged). ``reuse``: Newton's
+    ``reuse_factorisation`` (None: the problem's default)."""
     prob = issue35_problem(maxh, inverse)
     try:
         result = ramp(prob, prob.mu, values=issue35_mu_values(), strict=True,
-                      newton_options={"reuse_factorisation": reuse})
+                      newton_options={} if reuse is None else {"reuse_factorisation": reuse})
     except RampError as err:
         result = err.result
         print(f"  FAILED: {err}", flush=True)
@@ -422,15 +424,16 @@ def issue35(sizes: list[str], run_dir, path_size: str) -> None:
               f"preconditioner {t['reused_solve_s']:.2f}s; relative difference to the direct solution "
               f"{t['difference']:.1e}", flush=True)
         histories["bddc"].append({"size": size, **t})
-        for inverse, reuse in (("auto", False), ("auto", True), ("sparsecholesky", False)):
+        for inverse, reuse in (("auto", None), ("auto", False), ("sparsecholesky", False)):
             if inverse == "sparsecholesky" and size != sizes[0]:
                 continue
             t = issue35_ramp(maxh, inverse, reuse)
-            print(f"{size}: 20-step ramp, inverse={inverse!r}{', chord reuse' if reuse else ''}, 1 thread: "
+            label = "defaults" if reuse is None else f"inverse={inverse!r}, reuse_factorisation={reuse}"
+            print(f"{size}: 20-step ramp, {label}, 1 thread: "
                   f"{t['steps']} steps converged in {t['ramp_s']:.1f}s, {t['iterations']} iterations, "
                   f"{t['factorisations']} factorisations, {t['s_per_iteration']:.2f}s per iteration; in all: "
                   + ", ".join(f"{part} {t[part + '_s']:.1f}s" for part in Work.TIMES if part != "total"), flush=True)
-            histories["ramps"].append({"size": size, "inverse": inverse, "reuse": reuse, "threads": 1, **t})
+            histories["ramps"].append({"size": size, "inverse": inverse, "reuse": "auto" if reuse is None else reuse, "threads": 1, **t})
     tracking_costs(ISSUE35_SIZES[path_size], path_size, histories["path_steps"])
     for history in histories.values():
         history.close()

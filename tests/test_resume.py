@@ -23,6 +23,8 @@ from ngsgel.output import History
 from ngsgel.scenes import creases, gears, graded_plate_shell, microlens
 from ngsgel.transient import MarchCheckpoint, TransientProblem, march
 
+from killed_runs import Killed, KilledHistory
+
 # With threads the assembly's and the solvers' sums come in a varying order: two runs of the
 # quick microlens differ by up to 5e-9 relative (in eigenvalues next to zero). One thread makes
 # a path reproducible bit for bit, so a resumed path must then equal the uninterrupted one exactly.
@@ -53,24 +55,6 @@ def column(control: str):
         prob.prescribe("top", "y", -load * 4 * sigma_cr * length * (1 - 0.3**2))
     top = mesh(0.0, length)
     return prob, load, {"tip": lambda: prob.displacement(top)[0]}
-
-
-class Killed(Exception):
-    pass
-
-
-class KilledHistory(History):
-    """Stops the run, as a kill would, right after writing its row number ``at``: the point is
-    recorded, its checkpoint not yet written."""
-
-    def __init__(self, path, at: int):
-        super().__init__(path)
-        self.at = at
-
-    def append(self, row) -> None:
-        super().append(row)
-        if len(self.rows) == self.at:
-            raise Killed
 
 
 def test_a_resumed_arclength_path_is_the_uninterrupted_one(tmp_path, one_thread):
