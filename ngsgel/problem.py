@@ -138,7 +138,7 @@ class GelBody(BuiltOnDemand):
     admissible set ``J > 1`` (the mixing pressure is ``-inf`` at ``J = 1``), so set a swollen
     starting displacement before the first solve."""
 
-    runs_distributed = False  # on an MPI-distributed mesh (ngsgel.parallel): EquilibriumProblem only, so far
+    runs_distributed = False  # on an MPI-distributed mesh (ngsgel.parallel): set where a problem does
 
     def __init__(self, mesh: ngs.Mesh, *, kinematics: Kinematics,
                  materials: Mapping[str, Material] | Material, lam0: Lam0 | None = None, order: int = 2,

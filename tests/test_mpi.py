@@ -18,11 +18,19 @@ locates the bifurcation where the count goes from 0 to 2 at the serial load, wit
 counts; its history, progress lines and VTK pieces are written once (rank 0; one piece per
 compute rank), and a run killed after its last row, before its checkpoint, resumed from the
 3-rank checkpoint on 3 ranks ends as the uninterrupted one (a serial process refuses that file).
+
+Transient: a gel block bonded at its bottom, its top wetted (``mu`` ramped from -0.1 to -0.05
+over the march), displacement and chemical potential, ``march`` with BDF2 under error control:
+the serial steps (times, iterations, orders), solvent content and state; the solvent balance of
+every step over all ranks; a march killed in ``on_step`` after a BDF2 step, before its
+checkpoint, resumed from the 3-rank checkpoint on 3 ranks, takes the uninterrupted steps to the
+same state (and a serial process refuses that file).
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import importlib.util
 import io
 import json
@@ -31,6 +39,7 @@ import os
 import shutil
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -43,8 +52,10 @@ from ngsgel.continuation import Checkpoint, StabilityOptions, follow_path
 from ngsgel.output import History, Progress, RunDirectory, VTKSeries
 from ngsgel.stability import free_matrix, negative_count
 from ngsgel.stepping import ramp
+from ngsgel.transient import MarchCheckpoint, StepRecord, TransientResult, march, time_ramp
 
 from killed_runs import Killed, KilledHistory
+from test_transient import assert_balanced
 
 GEL = FloryRehnerGel(Nv=1e-3, chi=0.5)
 MU0 = -0.1
@@ -56,6 +67,10 @@ RAMP = dict(target=-0.08, step=0.005)  # mu from -0.1: three steps, the step gro
 PATH = dict(method="natural", step=0.5 * EULER_STRAIN * COLUMN_LENGTH,
             target=SHORTENINGS[1] * EULER_STRAIN * COLUMN_LENGTH, stability=StabilityOptions())
 KILL_AT = 4  # the path's rows: start, bifurcation, end of its step, target
+WETTED_MU = -0.05  # the top's mu at the march's end
+MARCH_END = 1e-3
+MARCH = dict(dt_start=1e-4)  # BDF2 under error control (the default rtol 1e-3)
+MARCH_KILL_AT = 8  # killed in on_step of this step (BDF2 from the fourth), before its checkpoint
 
 
 def swelling_block():
@@ -64,6 +79,10 @@ def swelling_block():
 
 def column():
     return block(lx=1, ly=1, lz=COLUMN_LENGTH, maxh=1.0, structured=True, nx=2, ny=2, nz=8).mesh
+
+
+def small_block():
+    return block(lx=1, ly=1, lz=0.5, maxh=1.0, structured=True, nx=2, ny=2, nz=2).mesh
 
 
 def vertex_values(prob) -> dict:
@@ -122,6 +141,61 @@ def column_problem(mesh, inverse: str) -> tuple[EquilibriumProblem, ngs.Paramete
     return prob, shortening
 
 
+def transient_block(mesh, inverse: str = "auto") -> TransientProblem:
+    prob = TransientProblem(mesh, kinematics=Solid3D(), materials=GEL, lam0=GEL.lam_free(MU0), mu0=MU0,
+                            inverse=inverse)
+    prob.fix("bottom")
+    prob.immerse("top", time_ramp(prob.t, start=MU0, end=WETTED_MU, duration=MARCH_END))
+    return prob
+
+
+def march_summary(prob, result) -> dict:
+    """The records (as numbers, NaN where a step has no error estimate) and the state at every vertex."""
+    points = [list(vertex.point) for vertex in prob.mesh.vertices]
+    return {"records": [[float(value) for value in dataclasses.astuple(r)] for r in result.records],
+            "initial content": prob.initial_content, **vertex_values(prob),
+            "mu": [prob.chemical_potential(prob.mesh(*p)) for p in points]}
+
+
+def same_records(first, second) -> bool:
+    """Equal step records (a step without an error estimate has NaN there, in both)."""
+    as_array = lambda records: np.array([dataclasses.astuple(r) for r in records], dtype=float)
+    return len(first) == len(second) and np.array_equal(as_array(first), as_array(second), equal_nan=True)
+
+
+def distributed_march(folder: Path) -> dict:
+    """The block's march, then killed and resumed on as many ranks."""
+    prob = transient_block(parallel.distribute_mesh(small_block))
+    whole = march(prob, MARCH_END, **MARCH)
+    results = {"march": march_summary(prob, whole)}
+    whole_state = prob.save_state()
+    seen = []
+
+    def stop(problem, record) -> None:
+        seen.append(record.time)
+        if len(seen) == MARCH_KILL_AT:
+            raise Killed
+
+    prob = transient_block(parallel.distribute_mesh(small_block))
+    with pytest.raises(Killed):
+        march(prob, MARCH_END, on_step=stop, checkpoint_file=folder / "march.pkl",
+              checkpoint_data=lambda: list(seen), **MARCH)
+    checkpoint = MarchCheckpoint.load(folder / "march.pkl")
+    prob = transient_block(parallel.distribute_mesh(small_block))  # as a new run would: nothing but the file
+    try:
+        march(prob, MARCH_END, resume=dataclasses.replace(checkpoint, ranks=1), **MARCH)
+        refused = ""
+    except ValueError as err:
+        refused = str(err)
+    resumed = march(prob, MARCH_END, resume=checkpoint, **MARCH)
+    gap = np.max(np.abs(prob.save_state() - whole_state), initial=0.0)
+    results["resumed march"] = {"checkpoint ranks": checkpoint.ranks, "checkpoint steps": len(checkpoint.records),
+                                "checkpoint data": checkpoint.data, "serial checkpoint refused": refused,
+                                "same records": bool(same_records(resumed.records, whole.records)),
+                                "state gap": prob.mesh.comm.Max(float(gap))}
+    return results
+
+
 def path_summary(result) -> dict:
     return {"parameters": [p.parameter for p in result.points], "negative": [p.negative for p in result.points],
             "steps": [p.step for p in result.points], "stop": result.stop_reason,
@@ -166,19 +240,22 @@ def distributed_run() -> None:
     results["compress"] = compress(parallel.distribute_mesh(column), "bddc", parallel.negative_count)[1]
     results["ramp"] = ramp_block(parallel.distribute_mesh(swelling_block), "masterinverse")[1]
     results.update(distributed_paths(Path(sys.argv[1])))
+    results.update(distributed_march(Path(sys.argv[1])))
     elements = comm.gather(parallel.distribute_mesh(swelling_block).ne, root=0)
     try:
-        TransientProblem(parallel.distribute_mesh(swelling_block), kinematics=Solid3D(), materials=GEL,
-                         lam0=GEL.lam_free(MU0), mu0=MU0)
+        transient_block(parallel.distribute_mesh(swelling_block), "umfpack").form
         refused = ""
     except ValueError as err:
         refused = str(err)
-    for result in (results[key] for key in ("swell-bddc", "swell-masterinverse", "compress", "ramp", "path")):
-        for key in ("points", "values"):
+    for result in (results[key] for key in ("swell-bddc", "swell-masterinverse", "compress", "ramp", "path",
+                                            "march")):
+        for key in ("points", "values", "mu"):
+            if key not in result:
+                continue
             parts = comm.gather(result[key], root=0)
             result[key] = [row for part in parts for row in part] if comm.rank == 0 else None
     if comm.rank == 0:
-        print(MARKER + json.dumps({**results, "transient refused": refused, "elements": elements}), flush=True)
+        print(MARKER + json.dumps({**results, "serial inverse refused": refused, "elements": elements}), flush=True)
 
 
 def _mpiexec() -> str | None:
@@ -245,7 +322,7 @@ def test_two_compute_ranks_hold_the_elements(distributed):
 
 @needs_mpi
 def test_what_does_not_run_distributed_says_so(distributed):
-    assert "TransientProblem does not run on a distributed mesh" in distributed["transient refused"]
+    assert "inverse on a distributed mesh must be one of" in distributed["serial inverse refused"]
     assert "follow_path runs method='natural'" in distributed["arclength refused"]
 
 
@@ -353,6 +430,61 @@ def test_killed_path_resumes_on_the_same_ranks(distributed):
         assert len(list(csv.DictReader(part))) == len(list(csv.DictReader(f)))
     with pytest.raises(ValueError, match="written by 3 MPI processes, this run has 1"):
         Checkpoint.load(distributed["folder"] / "part.npz")
+
+
+@pytest.fixture(scope="module")
+def serial_march():
+    prob = transient_block(small_block())
+    return prob, march(prob, MARCH_END, **MARCH)
+
+
+def step_records(rows) -> list[StepRecord]:
+    return [StepRecord(*row) for row in rows]
+
+
+@needs_mpi
+def test_march_equals_serial(distributed, serial_march):
+    prob, serial = serial_march
+    result = distributed["march"]
+    records = step_records(result["records"])
+    assert sum(r.order == 2 for r in serial.records) >= 3  # BDF2 steps, under error control
+    assert [r.order for r in records] == [r.order for r in serial.records]  # as many steps, the same schemes
+    assert [r.iterations for r in records] == [r.iterations for r in serial.records]  # exact solves
+    for name in ("time", "dt", "content", "uptake", "exchanged"):
+        assert [getattr(r, name) for r in records] == pytest.approx(serial.column(name).tolist(), rel=1e-8), name
+    assert result["initial content"] == pytest.approx(prob.initial_content, rel=1e-8)
+    assert_same_displacement(prob, result)
+    points, mu = np.array(result["points"]), np.array(result["mu"])
+    expected = np.array([prob.chemical_potential(prob.mesh(*p)) for p in points])
+    assert np.max(np.abs(mu - expected)) <= 1e-8 * np.max(np.abs(expected))
+    assert np.max(np.abs(expected - MU0)) > 0.1 * abs(WETTED_MU - MU0)  # the solvent has moved in
+
+
+@needs_mpi
+def test_distributed_march_balances_the_solvent(distributed):
+    result = distributed["march"]
+    assert_balanced(types.SimpleNamespace(initial_content=result["initial content"]),
+                    TransientResult(completed=True, records=step_records(result["records"])))
+
+
+@needs_mpi
+def test_killed_march_resumes_on_the_same_ranks(distributed):
+    resumed, folder = distributed["resumed march"], distributed["folder"]
+    whole = step_records(distributed["march"]["records"])
+    assert whole[MARCH_KILL_AT - 1].order == 2  # killed after a BDF2 step
+    assert resumed["checkpoint ranks"] == 3 and resumed["checkpoint steps"] == MARCH_KILL_AT - 1
+    assert resumed["checkpoint data"] == [r.time for r in whole[:MARCH_KILL_AT - 1]]  # the caller's, after step 7
+    assert "written by 1 MPI process(es), this problem runs on 3" in resumed["serial checkpoint refused"]
+    assert resumed["same records"]  # every step, its length, iterations, balance and error estimate
+    assert resumed["state gap"] == 0.0
+    assert sorted(p.name for p in folder.glob("march*")) == ["march.pkl"]  # one file, by rank 0
+    with pytest.raises(ValueError, match="written by 3 MPI processes, this run has 1"):
+        MarchCheckpoint.load(folder / "march.pkl")
+
+
+def test_transient_bddc_is_refused():
+    with pytest.raises(NotImplementedError, match="inverse='bddc' does not serve transient problems"):
+        transient_block(small_block(), "bddc")
 
 
 if __name__ == "__main__":
