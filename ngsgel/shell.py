@@ -80,7 +80,7 @@ import ngsolve as ngs
 
 from .materials import FloryRehnerGel, _check_lam0
 from .newton import LinearSolver, NewtonResult, newton
-from .problem import BuiltOnDemand
+from .problem import BuiltOnDemand, tangent_differentiated_once
 
 __all__ = ["GelShell", "plate_bending_stiffness"]
 
@@ -333,13 +333,9 @@ class GelShell(BuiltOnDemand):
         # point, without compiling second derivatives (~10 of a compiled form's ~30 s; compiling the
         # differentiated blocks themselves takes over 10 minutes). ``realcompile`` compiles the energy
         # and its first derivative only, for the residual: 2x faster than interpreted.
-        uses_diff = ngs.ngsglobals.symbolic_integrator_uses_diff
-        ngs.ngsglobals.symbolic_integrator_uses_diff = True
-        try:
+        with tangent_differentiated_once():
             form = ngs.BilinearForm(self._space, symmetric=True)
             form += ngs.Variation(energy).Compile()  # a flat list of steps: shared subexpressions once
-        finally:
-            ngs.ngsglobals.symbolic_integrator_uses_diff = uses_diff
         self._form = form
         self._residual_form = form
         if self.realcompile:
