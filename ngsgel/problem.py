@@ -162,7 +162,7 @@ class GelBody(BuiltOnDemand):
                  quadrature_order: int | None = None):
         if parallel.is_distributed(mesh) and not self.runs_distributed:
             raise ValueError(f"{type(self).__name__} does not run on a distributed mesh yet; EquilibriumProblem "
-                             "does (docs/parallel.md)")
+                             "and TransientProblem do (docs/parallel.md)")
         kinematics.check_mesh(mesh)
         if not isinstance(order, int) or order < 1:
             raise ValueError(f"order must be an integer >= 1, got {order!r}")
@@ -398,7 +398,7 @@ def chord_steps_pay(dim: int, free_dofs: int) -> bool:
     several chord steps (a residual and a solve each). Measured on issue 35's bonded gel block
     (order 2, 20-step ramp, one thread, docs/benchmarks.md): 28k unknowns, paced chord steps 23.9 s
     against 36.9 s of full Newton (unpaced chord steps, which continue while each cuts the
-    residual 4x, took 47 s: ~18 cheap steps where 3 full ones do); 53k 0.55x. On small meshes a
+    residual 4x, took 47 s: ~18 cheap steps where 3 full ones do); 53k 0.50x. On small meshes a
     factorisation is cheap, and chord steps stop at the tolerance asked for where a last full
     Newton step lands far below it: that accuracy costs little there and is kept, and runs repeat
     bit for bit (pacing depends on times). 2D and 1D problems keep full Newton (not measured to
