@@ -92,10 +92,9 @@ def quadrature_rules(order: int) -> dict:
 def tangent_differentiated_once():
     """Forms built inside differentiate their energy's second derivative symbolically once, at
     construction (NGSolve's ``symbolic_integrator_uses_diff``), instead of by automatic
-    differentiation at every quadrature point. The shell uses it. On issue 35's 28k block it gives
-    the same tangent to 1e-15 relative in 0.17-0.19 s instead of 0.25-0.26 s (one thread, best of
-    3), but not yet by default for EquilibriumProblem: the changed round-off lets Newton without a
-    floor converge where tests/test_newton_floor.py shows it must not, to be resolved first."""
+    differentiation at every quadrature point. The shell and EquilibriumProblem use it: on issue
+    35's 28k block it gives the same tangent to 1e-15 relative in 0.17-0.19 s instead of
+    0.25-0.26 s (one thread, best of 3)."""
     before = ngs.ngsglobals.symbolic_integrator_uses_diff
     ngs.ngsglobals.symbolic_integrator_uses_diff = True
     try:
@@ -485,8 +484,9 @@ class EquilibriumProblem(GelBody):
         w = self.kinematics.volume_weight()
         for boundary, t in self._tractions:
             energy += -(w * ngs.InnerProduct(t, u)) * ngs.ds(definedon=self.mesh.Boundaries(boundary))
-        form = ngs.BilinearForm(V, symmetric=True)
-        form += ngs.Variation(energy)
+        with tangent_differentiated_once():
+            form = ngs.BilinearForm(V, symmetric=True)
+            form += ngs.Variation(energy)
         self._attach_self_contacts(form, u, V, lambda gf: self.parts(gf)[0])
         self._form = form
         self.gf = ngs.GridFunction(V, name="displacement")
