@@ -1,14 +1,19 @@
 """Mirror-symmetric wedges of the graded disk (ngsgel/scenes/plate_wedges.py, issue 39 item 2b)."""
 
+import csv
 import math
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import ngsolve as ngs
 import pytest
 
 from geometries.plates import plate_sector_midsurface, sector_copy_map
+from ngsgel import FloryRehnerGel
 from ngsgel.output import RunDirectory
-from ngsgel.scenes.plate_wedges import check_wave, fold, reflect_displacement, relax_wedge, wedge_plate
+from ngsgel.scenes.plate_wedges import (check_wave, fold, full_plate, reflect_displacement, relax_wedge, run,
+                                        wedge_plate)
+from ngsgel.scenes.shell_cases import GEL, GRADED_MU0
 from ngsgel.stability import free_matrix, negative_count
 
 
@@ -148,3 +153,68 @@ def test_the_relaxation_path_leaves_the_flat_wedge_where_it_buckles_and_ends_on_
         flat.mu.Set(mu)
         flat.solve()
     assert path["energy_wedge"] < flat.energy()
+
+
+def _vtu_point_arrays(path) -> dict[str, np.ndarray]:
+    """The points ("Points") and point fields of an NGSolve ``.vtu`` (raw appended data, each
+    array preceded by its byte count as UInt32), one row per point."""
+    raw = path.read_bytes()
+    head, marker, appended = raw.partition(b"<AppendedData")
+    assert marker, f"{path} has no appended data"
+    data = appended[appended.index(b"_") + 1:]
+    root = ET.fromstring(head + b"</VTKFile>")
+    assert root.get("header_type", "UInt32") == "UInt32"
+    arrays = {}
+    for array in root.iter("DataArray"):
+        if array.get("type") != "Float64":
+            continue
+        offset = int(array.get("offset"))
+        size = int(np.frombuffer(data, dtype="<u4", count=1, offset=offset)[0])
+        values = np.frombuffer(data, dtype="<f8", count=size // 8, offset=offset + 4)
+        arrays[array.get("Name")] = values.reshape(-1, int(array.get("NumberOfComponents", "1")))
+    return arrays
+
+
+def test_the_scene_writes_a_vtk_step_per_path_row_and_the_end_state_swollen_freely_on_the_full_disk(tmp_path):
+    """The scene on a uniform gel (n0 = nR: no mismatch, so the wedge swells flat to mu = 0 without a
+    snap; k = 4 on base sectors of pi/4, h = 0.5, order 2): the wedge's series has one step per
+    row of the path's CSV; the end state on the full disk (the .vtu) covers all 2k images of the
+    wedge, is the saved state_k4.npz, and is the free swelling of the uniform gel from the
+    reference (the stiff gel at GRADED_MU0) to mu = 0: u = (lam_free(0) / lam0 - 1) x, flat."""
+    out = tmp_path
+    summary = run(str(out), p=1.0, ks=(4,), maxh=0.5, order=2, n0=1e-3, nR=1e-3, base_sectors=4, load="mu",
+                  step=0.3)
+    with open(out / "path_k4.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    steps = ET.parse(out / "wedge_k4.pvd").getroot().findall("Collection/DataSet")
+    assert len(steps) == len(rows) > 2
+    assert all((out / step.get("file")).is_file() for step in steps)
+    assert float(rows[-1]["mu"]) == 0.0
+    gel = FloryRehnerGel(Nv=1e-3, chi=GEL.chi)
+    swelling = gel.lam_free(0.0) / gel.lam_free(GRADED_MU0) - 1.0
+    assert swelling > 0.1
+
+    end = _vtu_point_arrays(out / steps[-1].get("file"))
+    full = _vtu_point_arrays(out / "full_k4.vtu")
+    assert {"displacement", "thickness_stretch", "Nv", "lowest_mode"} <= set(full)
+    assert np.allclose(full["Nv"], 1e-3, rtol=1e-12)
+    points = full["Points"]
+    blocks, _ = fold(points, 4)
+    assert set(blocks) == set(range(8))
+    # radial, linear in r (exact in the elements), no deflection; Newton's displacement tolerance: 1e-8 t
+    for arrays in (end, full):
+        u, x = arrays["displacement"], arrays["Points"]
+        assert np.max(np.abs(u[:, :2] - swelling * x[:, :2])) < 1e-10 * swelling
+        assert np.max(np.abs(u[:, 2])) < 1e-10 * swelling
+
+    saved = np.load(out / "state_k4.npz")
+    assert float(saved["mu"]) == 0.0
+    shell, mesh, _ = full_plate(1.0, maxh=0.5, order=2, n0=1e-3, nR=1e-3, base_sectors=4)
+    shell.restore_state(saved["state"])
+    rim = np.flatnonzero(np.abs(np.hypot(points[:, 0], points[:, 1]) - 1.0) < 1e-12)
+    assert rim.size >= 8
+    written = full["displacement"][rim]
+    state = np.array([shell.displacement(mesh(*x, ngs.BND)) for x in points[rim]])
+    assert np.max(np.abs(written - state)) < 1e-12 * swelling
+    assert summary["table"][0]["negative_full"] == 0
+    assert (out / "plate_wedges.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -20,9 +20,15 @@ full disk of ``2 base_sectors`` copies - one mesh for every k dividing ``base_se
 2, 4, 5). There the state is re-equilibrated (Newton, no symmetry imposed) and its energy, exact
 negative count and lowest modes (with their wave numbers) are those of the full disk.
 
-Writes per k ``path_k<k>.csv``, ``wedge_k<k>.json`` (legs, snaps, end state) and
-``state_k<k>.npz``, and ``summary.json`` (the table: energies, differences to k = 2, negative
-counts, lowest modes, rim harmonics, penetration depth).
+Writes per k ``path_k<k>.csv`` (``relax_k<k>.csv`` with ``--protocol relax``), ``wedge_k<k>.json``
+(legs, snaps, end state, the full disk's rim deflection ``rim_w``) and ``state_k<k>.npz``; the
+ParaView series ``wedge_k<k>.pvd`` of the wedge's states, one per row of the path's CSV as it is
+written (displacement, thickness stretch, membrane and moment traces, graded ``Nv``), and
+``full_k<k>.vtu``, the end state on the full disk (the same fields and its lowest mode's
+displacement); ``summary.json`` (the table: energies, differences to k = 2, negative counts,
+lowest modes, rim harmonics, penetration depth) and next to it ``plate_wedges.png``: the rim
+deflection w(theta) of each k's full-disk end state and each wedge's rim wave amplitude along
+its path.
 
     ngsgel run plate-wedges --out results/plate_wedges --p 0.75 --k 2 4 5
     ngsgel run plate-wedges --out results/half_disk --p 2 --k 1    # the shell path in the stretch
@@ -30,9 +36,11 @@ counts, lowest modes, rim harmonics, penetration depth).
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import ngsolve as ngs
@@ -41,7 +49,7 @@ from scipy.spatial import cKDTree
 from geometries.plates import SYM, SYM_END, plate_sector_midsurface, sector_copy_map
 from ngsgel import FloryRehnerGel, follow_path, ramp
 from ngsgel.continuation import ContinuationError, StabilityOptions
-from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser, silence_progress
+from ngsgel.output import History, Progress, RunDirectory, VTKSeries, quick_run, scene_parser, silence_progress
 from ngsgel.patterns import penetration_depth, periodic_peaks, wave_number
 from ngsgel.newton import NewtonError
 from ngsgel.relaxation import SettleError, _push_and_settle, settle, settle_after
@@ -70,6 +78,8 @@ FULL_DISK_ATOL = 1e-16
 # end a step ds in the stretch changes the mismatch by ~ ds / 1.67 (the stiff gel's stretch)
 LOADS = ("mu", "stretch")
 PROTOCOLS = ("path", "relax")  # follow_wedge, relax_wedge
+# each protocol's history of wedge k and its column of the load
+HISTORIES = {"path": ("path_k{k}.csv", "parameter"), "relax": ("relax_k{k}.csv", "load")}
 # Largest natural step: in mu (kT), or, for the stretch, in the mismatch: the path is cut into legs
 # of STATION_SPAN in the stretch, each with the largest stretch step that changes the mismatch by
 # at most this much at the leg's end (the mismatch grows ever faster in the stretch: 0.5 % is a
@@ -222,6 +232,11 @@ def rim_content(values: np.ndarray) -> dict:
             **{f"rim_a{m}": float(analysis.spectrum[m]) for m in range(1, RIM_MODES + 1)}}
 
 
+def shell_fields(shell: GelShell) -> dict[str, ngs.CoefficientFunction]:
+    """The fields of a wedge's or the full disk's state for VTK: the shell's own and the graded ``Nv``."""
+    return {**shell.fields(), "Nv": ngs.CF(shell.material.Nv)}
+
+
 def load_kind_and_step(shell: MirrorShell, step: float | None) -> tuple[str, float]:
     """Whether ``shell`` steps ``mu`` or the stretch, and the largest step (``DEFAULT_STEP`` of
     that kind unless given, in mu or in the mismatch)."""
@@ -239,7 +254,9 @@ def follow_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDire
     stability or stall the snap of ``graded_plate_shell``: ``settle_after``, ``SNAP_OVERSHOOT``
     further). ``jump``: the first snap relaxes at ``mu = 0`` itself (from the critical state
     pushed along its mode, the overdamped flow at ``mu = 0`` within the wedge's symmetry);
-    otherwise it relaxes ``FIRST_OVERSHOOT`` past the onset and the branch is followed."""
+    otherwise it relaxes ``FIRST_OVERSHOOT`` past the onset and the branch is followed. Writes
+    ``path_k<k>.csv`` and the VTK series ``wedge_k<k>`` (``shell_fields``), one state per row, and
+    a row (event "settled") for a snap that ends at ``mu = 0``."""
     t = shell.thickness
     kind, step = load_kind_and_step(shell, step)
     end = shell.load_at(0.0)
@@ -275,15 +292,16 @@ def follow_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDire
                                                "rim_max_abs_w")}}
     legs, snaps = [], []
     at_station = False  # the last leg ended at its target, stable: go on at full step
-    with History(run_dir.file(f"path_k{k}.csv")) as history:
+    vtk = VTKSeries(mesh, shell_fields(shell), run_dir.series(f"wedge_k{k}"))
+    with History(run_dir.file(HISTORIES["path"][0].format(k=k))) as history:
         while True:
             stability = StabilityOptions(eigenvalues=4, switch=False, tol=1e-4)
             target, max_step = leg_plan(shell.load.Get())
             try:
                 path = follow_path(shell, shell.load, method="natural", step=max_step if at_station else max_step / 5,
                                    max_step=max_step, min_step=max_step / MIN_STEP_DIVISOR, target=target,
-                                   stability=stability, qoi=qoi,
-                                   history=history, max_steps=max_steps, stop=lambda pt: bool(pt.negative),
+                                   stability=stability, qoi=qoi, history=history, vtk=vtk,
+                                   max_steps=max_steps, stop=lambda pt: bool(pt.negative),
                                    progress=progress, easy_iterations=EASY_ITERATIONS,
                                    newton_options={"stall_window": STALL_WINDOW})
             except ContinuationError as exc:  # a stall: the fold lies within the last failed step
@@ -323,7 +341,10 @@ def follow_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDire
                           "energy_drop": settled.energy_drop, "pseudo_time_steps": settled.steps,
                           "lowest_eigenvalue": settled.lowest_eigenvalue, "rim_after": dict(rim())})
             run_dir.write_json(f"wedge_k{k}.json", {"legs": legs, "snaps": snaps})
-            if shell.load.Get() >= end:  # settled at the target itself
+            if shell.load.Get() >= end:  # settled at the target itself: no leg records the end state
+                history.append({"step": 0, "parameter": shell.load.Get(), **{name: f() for name, f in qoi.items()},
+                                "energy": shell.energy(), "events": "settled"})
+                vtk.write(float(len(vtk.times)))
                 break
     return {"legs": legs, "snaps": snaps, "energy_wedge": shell.energy(), "rim_end": dict(rim())}
 
@@ -340,7 +361,8 @@ def relax_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDirec
     shrink to nothing where Newton needs many iterations next to a singular tangent (p = 2,
     quarter disk: 1e-4 in the stretch near ``mu = -3.4e-4``); these steps do not. ``start``: an
     ``.npz`` of a wedge state and its load (``follow_wedge``'s ``wedge_state_k*_leg*.npz``) to go on
-    from, instead of the flat state at ``mu_start``."""
+    from, instead of the flat state at ``mu_start``. Writes ``relax_k<k>.csv`` and the VTK series
+    ``wedge_k<k>`` (``shell_fields``), one state per row."""
     t = shell.thickness
     kind, step = load_kind_and_step(shell, step)
     end = shell.load_at(0.0)
@@ -365,7 +387,8 @@ def relax_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDirec
         raise RuntimeError(f"the wedge's start (k = {k}, {kind} = {shell.load.Get()}) is unstable "
                            f"({unstable} negative eigenvalues)")
     snaps = []
-    with History(run_dir.file(f"relax_k{k}.csv")) as history:
+    vtk = VTKSeries(mesh, shell_fields(shell), run_dir.series(f"wedge_k{k}"))
+    with History(run_dir.file(HISTORIES["relax"][0].format(k=k))) as history:
         while True:
             rim = rim_content(wedge_circle_values(shell.displacement[2], mesh, k, radius=RIM_RADIUS))
             history.append({"load": shell.load.Get(), "mu": shell.mu_value(), "energy": shell.energy(),
@@ -373,6 +396,7 @@ def relax_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDirec
                             "rim_purity": rim["rim_purity"], "rim_k_second": rim["rim_k_second"],
                             "rim_a2": rim["rim_a2"], "rim_a4": rim["rim_a4"], "relaxed": bool(snaps) and
                             snaps[-1]["load"] == shell.load.Get()})
+            vtk.write(float(len(vtk.times)))
             here = shell.load.Get()
             if here >= end:
                 break
@@ -509,11 +533,14 @@ class Reflection:
 
 
 def on_full_disk(wedge: MirrorShell, wedge_mesh: ngs.Mesh, k: int, *, p: float, maxh: float, order: int, t: float,
-                 n0: float, nR: float, base_sectors: int, eigenvalues: int = 6, progress=None) -> dict:
+                 n0: float, nR: float, base_sectors: int, eigenvalues: int = 6, vtk: Path | None = None,
+                 progress=None) -> dict:
     """The wedge's end state as a state of the full disk: the displacement reflected, rotations and
     thickness stretches solved for it (displacement prescribed), then the full disk's Newton from
     there (no symmetry imposed); its energy, exact negative count, lowest eigenvalues with their
-    modes' wave numbers, and how far Newton moved the reflected displacement."""
+    modes' wave numbers, the deflection ``rim_w`` on the rim circle, and how far Newton moved the
+    reflected displacement. ``vtk``: where to write the state as a VTK file (``shell_fields`` and
+    ``lowest_mode``, the displacement of the lowest eigenvalue's mode; default: not written)."""
     mu = wedge.mu_value()
     shell, mesh, pins = full_plate(p, maxh=maxh, order=order, t=t, n0=n0, nR=nR, base_sectors=base_sectors)
     reflection = Reflection(wedge_mesh, _graded(GelShell, mesh, p, t=t, order=order, n0=n0, nR=nR, realcompile=False),
@@ -543,13 +570,17 @@ def on_full_disk(wedge: MirrorShell, wedge_mesh: ngs.Mesh, k: int, *, p: float, 
     values = np.array([shell.displacement[2](mesh(RIM_RADIUS * math.cos(a), RIM_RADIUS * math.sin(a), 0.0, ngs.BND))
                        for a in 2 * math.pi * np.arange(RIM_SAMPLES) / RIM_SAMPLES])
     content = rim_content(values)
+    if vtk is not None:
+        mode.vec.FV().NumPy()[:] = 0.0
+        mode.vec.FV().NumPy()[shell.free_mask] = lowest.modes[:, 0]
+        VTKSeries(mesh, {**shell_fields(shell), "lowest_mode": mode.components[0]}, vtk).write(mu)
     radii = np.linspace(0.05, RIM_RADIUS, 24)
     amplitude = [wave_number(np.array([shell.displacement[2](mesh(r * math.cos(a), r * math.sin(a), 0.0, ngs.BND))
                                        for a in 2 * math.pi * np.arange(RIM_SAMPLES) / RIM_SAMPLES]),
                              max_mode=RIM_MODES).spectrum[content["rim_k"]] for r in radii]
     return {"ndof": shell.space.ndof, "energy": shell.energy(), "residual_reflected": residual_start,
             "newton_iterations": newton.iterations, "max_displacement_change": moved,
-            "negative": lowest.negative, "modes": modes, "rim": content,
+            "negative": lowest.negative, "modes": modes, "rim": content, "rim_w": values.tolist(),
             "l_5%": penetration_depth(np.array(amplitude), radii), "state": shell.save_state()}
 
 
@@ -603,14 +634,15 @@ def run(out: str, *, p: float, ks: tuple[int, ...] = (2, 4, 5), maxh: float = 0.
                                 progress=progress)
         np.savez(run_dir.file(f"wedge_state_k{k}.npz"), state=wedge.save_state(), mu=wedge.mu_value())
         full = on_full_disk(wedge, mesh, k, p=p, maxh=maxh, order=order, t=t, n0=n0, nR=nR,
-                            base_sectors=base_sectors, progress=progress)
+                            base_sectors=base_sectors, vtk=run_dir.series(f"full_k{k}"), progress=progress)
         np.savez(run_dir.file(f"state_k{k}.npz"), state=full.pop("state"), mu=wedge.mu_value())
         rows[k] = {"k_wedge": k, "energy_full": full["energy"], "energy_wedge_times_2k": 2 * k * path["energy_wedge"],
                    "wedge": path, "full": full, "wall_s": time.perf_counter() - clock}
         run_dir.write_json(f"wedge_k{k}.json", rows[k])
         progress(f"k = {k}: full-disk energy {full['energy']:.10g}, negative {full['negative']}, rim k "
                  f"{full['rim']['rim_k']} (purity {full['rim']['rim_purity']:.2f})")
-    reference = rows[2]["energy_full"] if 2 in rows else min(r["energy_full"] for r in rows.values())
+    reference_k = 2 if 2 in rows else min(rows, key=lambda k: rows[k]["energy_full"])
+    reference = rows[reference_k]["energy_full"]
     table = [{"k_wedge": k, "rim_k": r["full"]["rim"]["rim_k"], "rim_purity": r["full"]["rim"]["rim_purity"],
               "rim_crests": r["full"]["rim"]["rim_crests"], "energy": r["energy_full"],
               "energy_minus_reference": r["energy_full"] - reference,
@@ -621,7 +653,45 @@ def run(out: str, *, p: float, ks: tuple[int, ...] = (2, 4, 5), maxh: float = 0.
     summary = {"p": p, "maxh": maxh, "order": order, "ndof_full": next(iter(rows.values()))["full"]["ndof"],
                "table": table}
     run_dir.write_json("summary.json", summary)
+    plot(run_dir, rows, reference_k=reference_k, protocol=protocol, load=load,
+         title=f"p = {p:g}, h = {maxh:g} R, order {order}, protocol {protocol}")
     return summary
+
+
+def plot(run_dir: RunDirectory, rows: dict[int, dict], *, reference_k: int, protocol: str, load: str,
+         title: str) -> Path:
+    """``plate_wedges.png`` next to ``summary.json``: left, the deflection w(theta) on the rim circle
+    of each k's end state on the full disk (``rows``, as ``run`` makes them; in the legend its
+    energy relative to that of ``reference_k`` and its negative count); right, each wedge's rim
+    wave amplitude against the load (the rows of the ``protocol``'s history, ``HISTORIES``;
+    ``load``: the load's kind, ``LOADS``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    theta = 360 * np.arange(RIM_SAMPLES) / RIM_SAMPLES
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.5))
+    for k, row in rows.items():
+        full = row["full"]
+        ax.plot(theta, full["rim_w"], label=f"k = {k}: E - E(k = {reference_k}) = "
+                f"{row['energy_full'] - rows[reference_k]['energy_full']:.2g}, {full['negative']} negative")
+        name, load_column = HISTORIES[protocol]
+        with open(run_dir.file(name.format(k=k)), newline="") as file:
+            path = [(float(r[load_column]), float(r["rim_amplitude"])) for r in csv.DictReader(file)]
+        bx.plot(*zip(*path), ".-", ms=3, label=f"k = {k}")
+    ax.set_xlabel("theta [deg]")
+    ax.set_ylabel(f"w at r = {RIM_RADIUS} R, full disk at mu = 0 [R]")
+    ax.legend(fontsize=8)
+    bx.set_xlabel({"mu": "mu [kT]", "stretch": "softer gel's free-swelling stretch"}[load])
+    bx.set_ylabel("wedge's rim wave amplitude [R]")
+    bx.legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    target = run_dir.file("plate_wedges.png")
+    fig.savefig(target, dpi=130)
+    plt.close(fig)
+    return target
 
 
 def main(argv=None) -> dict:
