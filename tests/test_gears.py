@@ -226,6 +226,21 @@ def test_bad_scene_input():
         FilmTube(Ri=1.0, Ro=2.0, tfi=0.02, tfo=0.02, Efi=ES, Efo=ES, axial="loose")
 
 
+def test_critical_mode_sign_puts_a_tooth_at_angle_zero():
+    """The sign of the critical mode (ARPACK's choice, i.e. round-off) is replaced by a
+    convention: a tooth of the buckling film at its phase point on the x axis, outward on the
+    outer film and inward on the inner, whichever sign the mode comes with."""
+    model = gears.GearModel(gears.Scene(), gears.Resolution(48, 1, 0.5, 1))
+    p = model.problem
+    wave = ngs.GridFunction(p.space)
+    e_r = ngs.CF((ngs.x, ngs.y)) / ngs.sqrt(ngs.x**2 + ngs.y**2)
+    wave.Set(ngs.cos(4 * ngs.atan2(ngs.y, ngs.x)) * e_r)  # crests outward at angle 0
+    phi = wave.vec.FV().NumPy()[p.free_mask].copy()
+    for sign in (1.0, -1.0):
+        assert np.array_equal(gears.tooth_at_angle_zero(model, sign * phi, "outer"), phi)
+        assert np.array_equal(gears.tooth_at_angle_zero(model, sign * phi, "inner"), -phi)
+
+
 # Converged onset of Efo/Es = 100 (Efi/Es = 12.5, Ri/tfi = 50, Ro/tfo = 100) from the convergence
 # table of docs/gears.md: n_theta = 384 and 512 (p = 2) give mu_cr = -1.3547e-4 (same bisection
 # bracket, 1.6e-7 wide) and 256 cells with p = 3 -1.3538e-4; all fine meshes 24 waves.
@@ -261,6 +276,17 @@ def test_gears_quick_post_buckled_outer_teeth(tmp_path):
     assert summary["path"]["phase_pin_reaction_max_relative"] < 1e-9
     assert 0.7 < final["volume_fraction"] < 0.75
     assert json.load(open(tmp_path / "summary.json"))["final"]["type"] == "outer teeth"
+    # the switch converges inside Newton's basin, not by wandering into it: quadratic convergence
+    # from a first contraction of 1/10 reaches the floor in n = ceil(log2(1 + log10(r0/atol)))
+    # iterations (r_k = r0 10^-(2^k - 1)); two more for the pre-asymptotic steps of a guess
+    # that is off the branch by O(s^2). An attempt may only have failed by a rise of its residual
+    # (``monotone``), never at the iteration limit
+    switch = summary["switch"]
+    residuals = switch["residuals"]
+    assert residuals[1] <= residuals[0] / 10
+    quadratic = math.ceil(math.log2(1 + math.log10(residuals[0] / switch["atol"])))
+    assert switch["iterations"] <= quadratic + 2 < 15
+    assert all("residual rose" in failure["message"] for failure in switch["failed_attempts"])
     assert (tmp_path / "gear.png").stat().st_size > 0
     with open(tmp_path / "path.csv") as f:
         rows = f.read().splitlines()

@@ -61,6 +61,7 @@ NV, CHI = 1e-3, 0.5
 ES = 3 * NV  # the thesis's Es = 3NkT, in units of kT/v
 RI, RO = 1.0, 2.0
 SAMPLES = 2048  # points per circle for wave analysis and pictures
+TOOTH_DIRECTION = {"inner": -1.0, "outer": 1.0}  # teeth point inward on the inner film, outward on the outer
 
 
 @dataclass(frozen=True)
@@ -181,10 +182,10 @@ def classify(model: GearModel, threshold: float) -> dict:
     periodic peaks of that signal (teeth point inward for the inner film, outward for the outer)."""
     u = model.problem.displacement
     result = {}
-    for film, thickness, sign in (("inner", model.tube.tfi, -1.0), ("outer", model.tube.tfo, 1.0)):
+    for film, thickness in (("inner", model.tube.tfi), ("outer", model.tube.tfo)):
         signal = model.radial_signal(u, film)
         w = model.waves(u, film)
-        peaks = periodic_peaks(sign * (signal - signal.mean()), relative_prominence=0.3)
+        peaks = periodic_peaks(TOOTH_DIRECTION[film] * (signal - signal.mean()), relative_prominence=0.3)
         result[film] = {"teeth": bool(w["amplitude"] >= threshold * thickness), "k": w["k"],
                         "amplitude": w["amplitude"], "amplitude_over_t": w["amplitude"] / thickness,
                         "purity": w["purity"], "tooth_count": peaks.count}
@@ -252,8 +253,9 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
     # eigenvalues; the rigid-mode pins on the gel's inner surface change the eigenvalues (not the
     # inertia) of modes that move them, so an inner-film pair is split (Efo/Es = 1: -6.7e-6 and
     # -1.4e-6), an outer-film pair is not (split ~1e-10); the split is recorded. The mode is
-    # their combination that is mirror-symmetric about the x axis (a crest or trough at angle 0),
-    # see ``switch_branch`` (the branch switch converges from it onto the buckled branch).
+    # their combination that is mirror-symmetric about the x axis, with a tooth of the buckling
+    # film at angle 0 (``tooth_at_angle_zero``), see ``switch_branch`` (the branch switch
+    # converges from it onto the buckled branch).
     p.restore_state(hi[1])
     p.mu.Set(hi[0])
     negative_after = negative()
@@ -264,6 +266,7 @@ def onset(model: GearModel, *, history=None, progress=None, start_mu: float | No
     qoi = {k: f() for k, f in model.qoi().items()}
     mode_waves = {film: model.waves(p.parts(mode)[0], film) for film in ("inner", "outer")}
     located = max(mode_waves, key=lambda f: mode_waves[f]["amplitude"])
+    mode = mode_function(p, tooth_at_angle_zero(model, phi, located))
     record = {"mu_cr": 0.5 * (lo[0] + hi[0]), "mu_bracket": [lo[0], hi[0]], "negative_after": negative_after,
               "eigenvalues_after": [float(v) for v in eigenvalues],
               "volume_fraction_cr": qoi["volume_fraction"], "axial_stretch_cr": qoi["axial_stretch"],
@@ -338,6 +341,21 @@ def mirror_symmetric_mode(model: GearModel, pair: np.ndarray) -> np.ndarray:
     return pair @ (np.array([v[1], -v[0]]) / np.linalg.norm(v))
 
 
+def tooth_at_angle_zero(model: GearModel, phi: np.ndarray, film: str) -> np.ndarray:
+    """``phi`` (free-dof column) or ``-phi``: the one with a tooth of ``film`` at its phase point.
+
+    The sign of the mirror-symmetric combination follows the orientation of the basis ARPACK
+    returns for the pair, i.e. round-off, and the two signs start different branches on the
+    mesh (quick run, Efo/Es = 7.23: a tooth at angle 0 ended with 0 negative eigenvalues, a gap
+    between teeth with 11, energy 4.4e-8 higher; a 1e-15 change of the tangent flipped the sign)."""
+    free_idx = np.flatnonzero(model.problem.free_mask)
+    # the phase points lie on the positive x axis: u_x is the radial displacement there
+    radial = phi[np.searchsorted(free_idx, vertex_dof(model.problem, point=phase_points(model)[film], component=0))]
+    if radial == 0.0:
+        raise RuntimeError(f"the critical mode does not move the {film} film's phase point radially: no tooth sign")
+    return phi if TOOTH_DIRECTION[film] * radial > 0 else -phi
+
+
 def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: float = 0.25,
                   path_tol: float = 1e-10) -> dict:
     """Converge onto the buckled branch at a prescribed amplitude of the critical mode: the state
@@ -370,10 +388,18 @@ def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: f
     phi = mode.vec.FV().NumPy()[free]
     span = abs(model.mu_end - model.tube.mu0)
     atol = path_tol * span * float(np.linalg.norm(load_rate(p, p.mu).residual))
-    corrector = BorderedCorrector(p, p.mu, atol=atol, maxit=15)
-    # the corrector has no Armijo line search: from a guess too far out on the branch it can
-    # wander (Efo/Es = 1 and 8.8 at 0.25 t_f: residual 1.6e-3 and 5.6e-3 after 30 iterations);
-    # then the amplitude is halved, at most three times; every failure is recorded
+    # The guess (critical state plus s times the mode, at the critical mu) is off the branch by
+    # O(s^2): the branch bends away from the mode and mu moves like s^2. Iterations to the floor
+    # from 0.125 / 0.25 / 0.5 / 0.75 / 1 t_f, quick mesh: Efo/Es = 7.23 3 / 4 / 5 / 7 / none in
+    # 40; Efo/Es = 100 3 / 4 / 5 / 6 / 7 (its residual rose at the second). Without a line search
+    # an iterate outside Newton's basin wanders: from 1 t_f at Efo/Es = 7.23 (its branch reaches
+    # 0.7 t_f at the end) it did not converge in 40 iterations, or, from the other sign of the
+    # mode, landed at the 15th, 1.45 spans past the onset (Efo/Es = 1 and 8.8 at 0.25 t_f:
+    # residual 1.6e-3 and 5.6e-3 after 30 iterations). So an attempt fails at its first iteration
+    # that does not lower the residual (``monotone``: from 1 t_f at Efo/Es = 7.23 the fourth or
+    # the ninth, by the sign) and the amplitude is halved, at most three times; every failure is
+    # recorded
+    corrector = BorderedCorrector(p, p.mu, atol=atol, maxit=15, monotone=True)
     failures = []
     for attempt in range(4):
         amplitude = film_amplitude / 2**attempt
@@ -387,7 +413,7 @@ def switch_branch(model: GearModel, critical, record: dict, *, film_amplitude: f
             failures.append({"film_amplitude": amplitude, "message": str(err)})
     else:
         raise RuntimeError(f"no buckled state found along the critical mode: {failures}")
-    return {"dof": dof, "iterations": result.iterations, "mu": p.mu.Get(), "atol": atol,
+    return {"dof": dof, "iterations": result.iterations, "residuals": result.residuals, "mu": p.mu.Get(), "atol": atol,
             "film_amplitude": amplitude, "failed_attempts": failures,
             "mu_past_onset_fraction": (p.mu.Get() - mu) / (model.mu_end - model.tube.mu0)}
 
@@ -825,7 +851,9 @@ def _main(argv=None):
         # quick: onto the branch at 1 t_f, past the sqrt regime near the onset whose small steps
         # cost most of the path (Efo/Es = 100, quick mesh: 5 steps / 25 Newton iterations and 7
         # bordered ones, against 11 / 53 and 4 from 0.25 t_f; the same final state to 1e-12).
-        # A corrector that wanders is retried at half the amplitude (``switch_branch``)
+        # A corrector whose residual rises is retried at half the amplitude (``switch_branch``):
+        # from 1 t_f it rose at the 2nd iteration at Efo/Es = 100 and at the 4th at 7.23; both
+        # then converge from 0.5 t_f in 5 (paths 8 / 39 and 3 / 10)
         args.switch_amplitude = 1.0 if quick else 0.25
     if not 0 < args.switch_amplitude <= 10:
         raise ValueError(f"switch-amplitude must lie in (0, 10], got {args.switch_amplitude!r}")
