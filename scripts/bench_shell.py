@@ -16,8 +16,8 @@ Newton iteration (``--newton``, issue 34): the cost of each part of one Newton i
 stability check (tangent assembly, residual, factorisation, solve, negative count; medians of 3,
 one thread) on the microlens half cap (h = 0.05, 0.01 on the apex patch, order 3, unloaded, the
 apex push of 0.01 H pending) and the graded half disk (p = 2, h = 0.2, order 3, at its
-equilibrium at mu0), for each shell variant, with ratios to the first variant (today's default
-shell) from the same run; ``--quick``: the half cap at h = 0.1.
+equilibrium at mu0), for each shell variant (``SHELL_VARIANTS``: the python forms, the reference
+model, against the compiled kernels), with ratios to the first variant from the same run; ``--quick``: the half cap at h = 0.1.
 
     python scripts/bench_shell.py --out results/bench_shell [--quick] [--thickness 0.08]
     python scripts/bench_shell.py --newton --out results/bench_shell_newton [--quick]
@@ -36,9 +36,12 @@ from ngsgel.scenes.shell_cases import (GEL, H, MU0, MU1, NEWTON_PARTS, apex_stif
                                        cap_shell_rise, cap_solid_rise, graded_plate_shell, indented_half_cap_shell,
                                        newton_iteration_costs, rolled_strip_tip_error, thin_plate_deflection)
 
-# shell variants compared per Newton iteration: name -> GelShell options (the first is the baseline)
-SHELL_VARIANTS = {"exact (default)": {}, "exact, realcompile residual": {"realcompile": True},
-                  "exact, sparsecholesky": {"inverse": "sparsecholesky"}}
+# shell variants compared per Newton iteration: name -> GelShell options (the first is the baseline:
+# the energy as NGSolve coefficient functions, the reference model)
+SHELL_VARIANTS = {"python forms (reference)": {"kernels": "python"},
+                  "python forms, realcompile residual": {"kernels": "python", "realcompile": True},
+                  "compiled kernels": {"kernels": "compiled"},
+                  "compiled kernels, sparsecholesky": {"kernels": "compiled", "inverse": "sparsecholesky"}}
 
 
 def record(history: History, rows: list[dict], row: dict) -> None:
