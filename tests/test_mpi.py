@@ -64,6 +64,7 @@ EULER_STRAIN = math.pi**2 / (3 * COLUMN_LENGTH**2)  # clamped-clamped, unit squa
 SHORTENINGS = (0.6, 1.6)  # times the Euler strain
 MARKER = "MPI-RESULT "
 RAMP = dict(target=-0.08, step=0.005)  # mu from -0.1: three steps, the step grows after easy ones
+PACED = {"reuse_factorisation": True, "chord_pacing": True}
 PATH = dict(method="natural", step=0.5 * EULER_STRAIN * COLUMN_LENGTH,
             target=SHORTENINGS[1] * EULER_STRAIN * COLUMN_LENGTH, stability=StabilityOptions())
 KILL_AT = 4  # the path's rows: start, bifurcation, end of its step, target
@@ -122,12 +123,13 @@ def serial_count(prob) -> int:
     return negative_count(free_matrix(prob.tangent(prob.state), prob.free_mask))
 
 
-def ramp_block(mesh, inverse: str) -> tuple[EquilibriumProblem, dict]:
+def ramp_block(mesh, inverse: str, newton_options: dict | None = None) -> tuple[EquilibriumProblem, dict]:
     prob = EquilibriumProblem(mesh, kinematics=Solid3D(), materials=GEL, lam0=GEL.lam_free(MU0), mu=MU0, order=2,
                               inverse=inverse)
     prob.fix("bottom")
-    result = ramp(prob, prob.mu, **RAMP)
+    result = ramp(prob, prob.mu, **RAMP, newton_options=newton_options or {})
     return prob, {"parameters": result.values, "iterations": [n.iterations for n in result.newton],
+                  "kinds": [work.kind for step in result.records for work in step.records],
                   "energy": prob.energy(), **vertex_values(prob)}
 
 
@@ -239,6 +241,10 @@ def distributed_run() -> None:
     # BDDC-CG through the bifurcation: an indefinite tangent at the second state
     results["compress"] = compress(parallel.distribute_mesh(column), "bddc", parallel.negative_count)[1]
     results["ramp"] = ramp_block(parallel.distribute_mesh(swelling_block), "masterinverse")[1]
+    # paced chord steps decide from measured times: each rank's own would differ, so they use the
+    # slowest rank's, and every rank must take the same sequence of chord and full steps
+    results["ramp-paced"] = ramp_block(parallel.distribute_mesh(swelling_block), "masterinverse", PACED)[1]
+    results["ramp-paced"]["kinds"] = comm.gather(results["ramp-paced"]["kinds"], root=0)
     results.update(distributed_paths(Path(sys.argv[1])))
     results.update(distributed_march(Path(sys.argv[1])))
     elements = comm.gather(parallel.distribute_mesh(swelling_block).ne, root=0)
@@ -247,8 +253,8 @@ def distributed_run() -> None:
         refused = ""
     except ValueError as err:
         refused = str(err)
-    for result in (results[key] for key in ("swell-bddc", "swell-masterinverse", "compress", "ramp", "path",
-                                            "march")):
+    for result in (results[key] for key in ("swell-bddc", "swell-masterinverse", "compress", "ramp", "ramp-paced",
+                                            "path", "march")):
         for key in ("points", "values", "mu"):
             if key not in result:
                 continue
@@ -375,6 +381,18 @@ def test_ramp_equals_serial(distributed):
     assert len(serial["parameters"]) == 3 and serial["parameters"][-1] == RAMP["target"]  # grown, then shortened
     assert result["parameters"] == serial["parameters"]
     assert result["iterations"] == serial["iterations"]  # exact solves, the same predictors
+    assert result["energy"] == pytest.approx(serial["energy"], rel=1e-8)
+    assert_same_displacement(prob, result)
+
+
+@needs_mpi
+def test_paced_chord_steps_decide_alike_on_every_rank(distributed):
+    result = distributed["ramp-paced"]
+    kinds = result["kinds"]
+    assert len(kinds) == 3 and kinds[1] == kinds[2] == kinds[0]  # rank 0 holds no elements, takes part
+    assert "chord" in kinds[0] and "newton" in kinds[0]
+    prob, serial = ramp_block(swelling_block(), "sparsecholesky")
+    assert result["parameters"] == serial["parameters"]
     assert result["energy"] == pytest.approx(serial["energy"], rel=1e-8)
     assert_same_displacement(prob, result)
 
