@@ -60,11 +60,18 @@ Limits: each element measures its normal angle against the averaged edge normal;
 degrees of rotation against it ``acos`` degenerates, so runs with large rotations call
 ``update_edge_normals`` between load steps (a strip rolled to a quarter circle this way is exact
 to 4e-5). Membrane locking of curved shells is not treated by Regge interpolation (order 3 gave
-the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %). The tangent (interpreted, with
-symbolically differentiated blocks, also when ``realcompile`` compiles the residual) costs ~4 ms
-per order-3 element and Newton step on 2 threads (graded half disk, 78 triangles: 0.29 s; as fast
-as the C++-compiled second derivatives, which took ~30 s to compile), 25x the residual: the shell
-is cheap in unknowns, not yet per unknown.
+the Reissner point-load stiffness of a t/r = 0.005 cap to 0.4 %).
+
+Cost: the energy's residual and tangent are evaluated by compiled C++ kernels (``kernels``,
+``ngsgel.kernels``: the same energy, residual and tangent as the symbolic forms to round-off) or
+by NGSolve's symbolic forms, whose tangent differentiates the through-thickness gel law with the
+surface Hessian of ``u`` inside it twice at every point. One Newton iteration with a stability
+check of the microlens half cap (h = 0.05, 0.01 on the apex patch, order 3: 1731 triangles,
+51204 free unknowns; one thread, medians of 3; two runs, at load 0.6-0.9 and 1.5-2.6) took
+1.96-2.57 s with the kernels against 16.3-17.1 s with the symbolic forms (8.7x and 6.3x): the
+tangent 0.66-0.90 s against 13.3-14.1 s (21x and 15x), the residual 0.27-0.38 s against 1.57 s
+(5.8x and 4.1x). The kernels' tangent is 2.4x their residual (the symbolic one 8.5-9x), and the
+factorisation and negative count are now half of the iteration.
 """
 
 from __future__ import annotations
@@ -72,12 +79,14 @@ from __future__ import annotations
 import functools
 import math
 import operator
+import warnings
 from collections.abc import Sequence
 from numbers import Real
 
 import numpy as np
 import ngsolve as ngs
 
+from . import kernels as _kernels
 from .materials import FloryRehnerGel, _check_lam0
 from .newton import LinearSolver, NewtonResult, newton
 from .problem import BuiltOnDemand, tangent_differentiated_once
@@ -85,6 +94,7 @@ from .problem import BuiltOnDemand, tangent_differentiated_once
 __all__ = ["GelShell", "plate_bending_stiffness"]
 
 _COMPONENTS = ("x", "y", "z")
+KERNEL_CHOICES = ("auto", "compiled", "python")
 
 
 def plate_bending_stiffness(material: FloryRehnerGel, *, lam0: float, thickness: float) -> float:
@@ -109,9 +119,19 @@ class GelShell(BuiltOnDemand):
     ``lam0``: stretch of the reference from the dry state; ``thickness``: reference thickness;
     ``mu``: number (held in the ``Parameter`` ``self.mu``); ``order``: displacement order
     (>= 2); ``thickness_points``: Gauss points through the thickness (>= 2); ``penalty``:
-    dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``); ``realcompile``:
-    compile the energy and its first derivative to C++ for the residual (needs a compiler, ~20 s;
-    the residual 2x faster: pays off on long paths; the tangent is interpreted either way).
+    dimensionless interior-penalty factor (> 0, scaled by ``order^2 D / h``); ``kernels``: how
+    the energy's residual and tangent are evaluated: ``"compiled"`` by the C++ kernels of
+    ``ngsgel.kernels`` (compiled at first use into a per-user cache, ~25 s once per machine and
+    NGSolve version; raises ``KernelsUnavailable`` when they cannot be built, and ``ValueError``
+    for options they do not cover: ``thickness_points != 2``, ``consistent_moment=True``,
+    ``realcompile=True``), ``"python"`` by NGSolve's symbolic forms of the same energy (the
+    reference model), ``"auto"`` compiled where they build and cover the options, else Python
+    with a warning giving the reason; surface loads and edge moments are symbolic terms in
+    either case. ``realcompile``: compile the Python forms' energy and first derivative to C++
+    for the residual (needs a compiler, ~20 s; the residual 2x faster; the tangent is
+    interpreted either way). Pointless with the kernels, whose residual is 4x faster than the
+    interpreted one: asking for it asks for the Python forms (an error with
+    ``kernels="compiled"``, the Python forms with a warning under ``"auto"``).
     ``inverse``: NGSolve's sparse factorisation. UMFPACK by default because its result is a
     function of the matrix alone: ``sparsecholesky`` on more than one thread is not (repeated
     factorisations of one matrix solve to results ~1e-15 apart), which is enough to send a run
@@ -121,7 +141,8 @@ class GelShell(BuiltOnDemand):
 
     def __init__(self, mesh: ngs.Mesh, *, material: FloryRehnerGel, lam0: float, thickness: float,
                  mu: float = 0.0, order: int = 3, thickness_points: int = 2, penalty: float = 4.0,
-                 consistent_moment: bool = False, inverse: str = "umfpack", realcompile: bool = False):
+                 consistent_moment: bool = False, inverse: str = "umfpack", realcompile: bool = False,
+                 kernels: str = "auto"):
         if mesh.dim != 3 or mesh.ne != 0 or mesh.nface == 0:
             raise ValueError("mesh must be a surface mesh in 3D (a mid-surface: no volume elements)")
         if not isinstance(material, FloryRehnerGel):
@@ -150,6 +171,14 @@ class GelShell(BuiltOnDemand):
         if not isinstance(realcompile, bool):
             raise ValueError(f"realcompile must be True or False, got {realcompile!r}")
         self.realcompile = realcompile
+        if kernels not in KERNEL_CHOICES:
+            raise ValueError(f"kernels must be one of {KERNEL_CHOICES}, got {kernels!r}")
+        self.kernels = kernels
+        self._kernel_gaps = self._options_kernels_lack(thickness_points)
+        if kernels == "compiled" and self._kernel_gaps:
+            raise ValueError(f"kernels='compiled' does not cover {'; '.join(self._kernel_gaps)}: "
+                             f"use kernels='python' (or 'auto', which falls back to it)")
+        self._compiled_kernels_used = None
         self.mu = ngs.Parameter(float(mu))
         xi, wq = np.polynomial.legendre.leggauss(thickness_points)
         self._layers = [(0.5 * self.thickness * float(a), float(b)) for a, b in zip(xi, wq)]
@@ -315,29 +344,37 @@ class GelShell(BuiltOnDemand):
 
         trial = self._space.TrialFunction()
         u, omega, lams = trial[0], trial[1].Trace(), list(trial[2:])
-        kin = self._kinematics(u, lams)
-        psi = kin["psi"]
-        energy = psi * ngs.ds
-        energy += self._edge_energy(u, omega, kin) * ngs.ds(element_boundary=True)
+        external = []  # minus the work of the dead surface loads and edge moments
         for region, load in self._surface_loads:
-            energy += -ngs.InnerProduct(load, u) * ngs.ds(definedon=mesh.Boundaries(region))
+            external.append(-ngs.InnerProduct(load, u) * ngs.ds(definedon=mesh.Boundaries(region)))
         for boundary, moment in self._edge_moments:
             # the hybrid unknown is (minus) the edge rotation; an indicator of the curve restricts
             # the element-boundary integral to it
             on_curve = ngs.GridFunction(ngs.FacetSurface(mesh, order=0))
             on_curve.Set(1.0, definedon=mesh.BBoundaries(boundary))
             mu_ref = ngs.Cross(ngs.specialcf.normal(3), ngs.specialcf.tangential(3))
-            energy += on_curve * moment * (omega * mu_ref) * ngs.ds(element_boundary=True)
-        # The tangent's blocks are differentiated symbolically once (NGSolve's "uses_diff"
-        # integrators), interpreted: as fast as C++-compiled forward-mode differentiation at every
-        # point, without compiling second derivatives (~10 of a compiled form's ~30 s; compiling the
-        # differentiated blocks themselves takes over 10 minutes). ``realcompile`` compiles the energy
-        # and its first derivative only, for the residual: 2x faster than interpreted.
-        with tangent_differentiated_once():
-            form = ngs.BilinearForm(self._space, symmetric=True)
-            form += ngs.Variation(energy).Compile()  # a flat list of steps: shared subexpressions once
+            external.append(on_curve * moment * (omega * mu_ref) * ngs.ds(element_boundary=True))
+        form = ngs.BilinearForm(self._space, symmetric=True)
+        kernel_module = self._load_kernels()
+        if kernel_module is not None:
+            for integrator in self._kernel_integrators(kernel_module, trial):
+                form += integrator
+            energy = functools.reduce(operator.add, external) if external else None
+        else:
+            kin = self._kinematics(u, lams)
+            energy = functools.reduce(operator.add, external, kin["psi"] * ngs.ds
+                                      + self._edge_energy(u, omega, kin) * ngs.ds(element_boundary=True))
+        if energy is not None:
+            # The tangent's blocks are differentiated symbolically once (NGSolve's "uses_diff"
+            # integrators), interpreted: as fast as C++-compiled forward-mode differentiation at
+            # every point, without compiling second derivatives (~10 of a compiled form's ~30 s;
+            # compiling the differentiated blocks themselves takes over 10 minutes).
+            with tangent_differentiated_once():
+                form += ngs.Variation(energy).Compile()  # a flat list of steps: shared subexpressions once
         self._form = form
         self._residual_form = form
+        # ``realcompile`` compiles the energy and its first derivative only, for the residual: 2x
+        # faster than interpreted
         if self.realcompile:
             compiled = [integral.coef.Compile(realcompile=True, maxderiv=1, wait=True) * integral.symbol
                         for integral in energy]
@@ -406,15 +443,25 @@ class GelShell(BuiltOnDemand):
         return dict(psi=psi, moment=-dpsi_dS, linear_moment=linear_moment, membrane=membrane, Fm=Fm, n=n, N=N, lever=lever,
                     margins=margins, cauchy=cauchy, volume=volume, reference_volume=reference_volume)
 
-    def _plane_stress(self, strain, P):
-        """Linearised drained plane-stress law of the reference state (local ``Nv``):
-        ``2 G (eps + nu / (1 - nu) tr(eps) P)``."""
+    def _reference_moduli(self):
+        """Drained shear modulus ``G`` and Poisson ratio ``nu`` of the reference state (numbers,
+        or fields with a graded ``Nv``)."""
         Nv, chi, lam0 = self.material.Nv, self.material.chi, self.lam0
         J0 = lam0**3
         G = Nv / lam0
         K = Nv * (1 / J0 - 1 / (3 * lam0)) + 1 / (J0 * (J0 - 1)) - 2 * chi / J0**2
-        nu = (3 * K - 2 * G) / (2 * (3 * K + G))
+        return G, (3 * K - 2 * G) / (2 * (3 * K + G))
+
+    def _plane_stress(self, strain, P):
+        """Linearised drained plane-stress law of the reference state (local ``Nv``):
+        ``2 G (eps + nu / (1 - nu) tr(eps) P)``."""
+        G, nu = self._reference_moduli()
         return 2 * G * (strain + nu / (1 - nu) * ngs.Trace(strain) * P)
+
+    def _edge_stiffness(self):
+        """Interior-penalty stiffness of the edge angles, ``~ alpha k^2 D / h``."""
+        G = self.material.Nv / self.lam0
+        return self.penalty * self.order**2 * self.thickness**3 / 3.0 * G / ngs.specialcf.mesh_size
 
     def _edge_energy(self, u, omega, kin) -> ngs.CoefficientFunction:
         N = kin["N"]
@@ -431,10 +478,71 @@ class GelShell(BuiltOnDemand):
         theta = ngs.acos(mu_def * avg_def) - ngs.acos(mu_ref * avg_ref) + omega * mu_ref
         moment = kin["moment"] if self.consistent_moment else kin["linear_moment"]
         m_nn = ngs.InnerProduct(moment * mu_ref, mu_ref)
-        h = ngs.specialcf.mesh_size
-        G = self.material.Nv / self.lam0
-        stiffness = self.penalty * self.order**2 * self.thickness**3 / 3.0 * G / h  # ~ alpha k^2 D / h
-        return m_nn * theta + 0.5 * stiffness * theta**2
+        return m_nn * theta + 0.5 * self._edge_stiffness() * theta**2
+
+    # ------------------------------------------------------------------ compiled kernels
+    def _options_kernels_lack(self, thickness_points: int) -> list[str]:
+        """The options of this shell that the compiled kernels do not implement."""
+        gaps = []
+        if thickness_points != _kernels.THICKNESS_POINTS:
+            gaps.append(f"thickness_points={thickness_points} (they have {_kernels.THICKNESS_POINTS})")
+        if self.consistent_moment:
+            gaps.append("consistent_moment=True (they have the linearised edge moment)")
+        if self.realcompile:
+            gaps.append("realcompile=True (it compiles the Python forms' residual; the kernels' residual is "
+                        "compiled already: pass realcompile=False)")
+        return gaps
+
+    def _load_kernels(self):
+        """The compiled kernel module if this shell uses it, else None (the Python forms);
+        ``kernels='auto'`` warns with the reason when it falls back."""
+        if self.kernels == "python":
+            reason = None
+        elif self._kernel_gaps:
+            reason = f"the compiled kernels do not cover {'; '.join(self._kernel_gaps)}"
+        else:
+            try:
+                module = _kernels.load_shell_kernels()
+            except _kernels.KernelsUnavailable as error:
+                if self.kernels == "compiled":
+                    raise
+                reason = str(error)
+            else:
+                self._compiled_kernels_used = True
+                return module
+        if reason is not None:
+            # warned from one place: Python's default filter then shows each reason once per process
+            warnings.warn(f"GelShell(kernels='auto') uses the Python forms: {reason}", RuntimeWarning)
+        self._compiled_kernels_used = False
+        return None
+
+    def _kernel_integrators(self, kernel_module, trial) -> list:
+        """The area energy ``psi`` and the default edge energy as the compiled integrators. The
+        geometry reaches them as CoefficientFunctions evaluated at every assembly: the
+        ``Parameter`` ``mu``, a graded ``Nv`` and the averaged edge normals that
+        ``update_edge_normals`` changes."""
+        u = trial[0]
+        grad_u, hesse = ngs.Grad(u).Trace(), u.Operator("hesseboundary")
+        N = ngs.specialcf.normal(3)
+        P = ngs.Id(3) - ngs.OuterProduct(N, N)
+        weingarten = (P * ngs.Sym(ngs.Grad(N)) * P).Reshape((9,))
+        area_geometry = ngs.CF((N, weingarten, ngs.CF(self.material.Nv), self.mu))
+        area = kernel_module.ShellArea(grad=grad_u, hesse=hesse, lams=list(trial[2:]), geometry=area_geometry,
+                                  thickness=self.thickness, lam0=self.lam0, chi=self.material.chi,
+                                  zetas=[zeta for zeta, _ in self._layers], weights=[w for _, w in self._layers])
+        G, nu = self._reference_moduli()
+        edge_geometry = ngs.CF((N, weingarten, ngs.specialcf.tangential(3), self._avg_normal, self._avg_normal_ref,
+                                self._edge_stiffness(), ngs.CF(2 * G), ngs.CF(nu / (1 - nu))))
+        edge = kernel_module.ShellEdge(grad=grad_u, hesse=hesse, omega=trial[1].Trace(), geometry=edge_geometry,
+                                  thickness=self.thickness)
+        return [area, edge]
+
+    @property
+    def compiled_kernels(self) -> bool:
+        """Whether the forms use the compiled kernels (builds the forms: with ``kernels='auto'``
+        that is where the choice is made)."""
+        self.form
+        return self._compiled_kernels_used
 
     # ------------------------------------------------------------------ NonlinearSystem
     @property

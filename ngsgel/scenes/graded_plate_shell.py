@@ -154,7 +154,7 @@ def check_grading(n0: float, nR: float) -> None:
 
 def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_NR, t: float = 0.01,
         maxh: float = 0.2, order: int = 3, step: float = 0.05,
-        max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = True, mu_start: float | None = MU_START,
+        max_steps: int = 200, eigenvalues: int = 4, realcompile: bool = False, mu_start: float | None = MU_START,
         maxit: int | None = None, half: bool = True, switch_all: bool = False, through_snaps: bool = True,
         snap_overshoot: float = 1e-3, jump_ratio: float | None = None, quick: bool = False,
         options: dict | None = None, resume: bool = False) -> dict:
@@ -315,7 +315,7 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
 def seeded_pattern(out: str, *, p: float, k: int, load: float = 1e-3, n0: float = GRADED_N0, nR: float = GRADED_NR,
                    t: float = 0.01, maxh: float = 0.2,
                    order: int = 3, mu_start: float = MU_START, step: float = 0.01,
-                   realcompile: bool = True) -> dict:
+                   realcompile: bool = False) -> dict:
     """Whether the wave number ``k`` is a stable pattern of the disk at ``mu = 0`` when a run is
     seeded with it (the thesis's runs seeded "an infinitesimal initial geometry imperfection" of
     unstated shape): the half disk carries a transverse dead load ``load * D / R^4 * cos(k theta)
@@ -426,7 +426,8 @@ def main(argv=None) -> dict:
                         help="step in mu (kT): arc length (in mu) of the first leg and of arclength legs, their "
                              "maximum; snapping legs step mu from step / 5 up to step")
     parser.add_argument("--max-steps", type=int, default=200, help="path points of all legs together, at most")
-    parser.add_argument("--no-realcompile", action="store_true", help="do not compile the forms to C++")
+    parser.add_argument("--realcompile", action="store_true",
+                        help="the shell's Python forms with a C++-compiled residual instead of its compiled kernels")
     parser.add_argument("--mu-start", type=float, default=MU_START,
                         help="ramp the flat disk to this mu (kT) first, below the onset")
     parser.add_argument("--maxit", type=int, help="Newton iterations per solve (default: the driver's)")
@@ -457,12 +458,12 @@ def main(argv=None) -> dict:
         if args.seed_wave is not None:
             summary = seeded_pattern(args.out, p=args.p, k=args.seed_wave, load=args.seed_load, n0=args.n0,
                                      nR=args.nR, t=args.t, maxh=args.maxh, order=args.order,
-                                     realcompile=not args.no_realcompile, mu_start=args.mu_start)
+                                     realcompile=args.realcompile, mu_start=args.mu_start)
             print(json.dumps({k: v for k, v in summary.items() if k not in ("rim_with_seed", "penetration_depth")},
                              default=str, indent=1))
             return summary
         summary = run(args.out, p=args.p, n0=args.n0, nR=args.nR, t=args.t, maxh=args.maxh, order=args.order,
-                      step=args.step, max_steps=args.max_steps, realcompile=not args.no_realcompile,
+                      step=args.step, max_steps=args.max_steps, realcompile=args.realcompile,
                       mu_start=args.mu_start, maxit=args.maxit, half=args.half, switch_all=args.switch_all,
                       through_snaps=not (args.switch_all or args.no_snaps), snap_overshoot=args.snap_overshoot,
                       jump_ratio=args.jump_ratio, quick=quick_run(args), options=command_options(args),

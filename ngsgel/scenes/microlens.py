@@ -218,14 +218,15 @@ class AxisymmetricCap:
 class ShellResolution:
     """Mid-surface element size ``maxh``, ``apex_maxh`` on the apex patch of radius ``apex``,
     displacement ``order``; ``half``: the half cap ``y >= 0`` with mirror symmetry; ``realcompile``:
-    compile the shell's energy to C++ (~30 s once, then 2-3x faster steps)."""
+    the shell's Python forms with the residual compiled to C++ (``GelShell``'s compiled kernels,
+    used otherwise where a compiler exists, are faster)."""
 
     maxh: float = 0.05
     apex_maxh: float = 0.01
     order: int = 3
     apex: float = 0.02
     half: bool = True
-    realcompile: bool = True
+    realcompile: bool = False
 
     def __post_init__(self):
         if not (0 < self.maxh <= 0.5):
@@ -1263,8 +1264,7 @@ def main_shell(args, quick: bool) -> dict:
     case = Indentation(H=args.H, direction=args.direction, depth=0.3 if quick else args.depth, mu=args.mu,
                        edge=args.edge, indenter=args.indenter)
     res = ShellResolution(maxh=0.2 if quick else (args.maxh or 0.05), apex_maxh=0.05 if quick else args.apex_maxh,
-                          order=2 if quick else args.order, apex=args.apex, half=not args.full,
-                          realcompile=not quick)
+                          order=2 if quick else args.order, apex=args.apex, half=not args.full)
     summary = run_shell(case, res, args.out, step=0.1 if quick else args.step, max_step=0.1 if quick else 2 * args.step,
                         mu_at=args.mu_at, mu_to=args.mu_to, mu_steps=args.mu_steps, restart=args.restart, snaps=args.snaps,
                         snap_tau=args.snap_tau, polygon=args.polygon, polygon_at=args.polygon_at,
