@@ -953,37 +953,42 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
         # at round-off, which no relative tolerance can reduce further
         newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(
             parallel.load_rate(problem, parameter).residual)))
-    first = problem.solve(**newton_options) if resume is None else None
-    driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
-                     vtk_every=vtk_every, progress=progress, target=target, keep_states=keep_states, stop=stop,
-                     max_steps=max_steps, locate=stabilization is None, newton_options=newton_options,
-                     checkpoint_file=checkpoint_file)
-    previous = None
-    if start is not None and start.previous_state is not None:
-        previous = _Converged(start.previous_parameter, start.previous_state, None)
-    if resume is None:
-        driver.add_work(first.records)
-        current = driver.converged(first.iterations)
-        driver.record(current, dissipated=0.0 if stabilization else None)
-        driver.close_step(current.parameter)
-        driver.keep(method, current, previous, step, restart.scale if restart else None)
-    else:
-        driver.take_up(resume)
-        if resume.stop_reason:
-            result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events),
-                                driver.step_work)
-            if resume.stop_reason == "min_step":
-                raise ContinuationError(resume.message, result)
-            return result
-        current = driver.converged(resume.points[-1].iterations)  # its spectrum again: the next step's check
-        driver.close_step(current.parameter)
-    if method == "natural":
-        return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
-                        stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
-                        newton_options=newton_options)
-    return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
-                      direction=direction, scale=start.scale if start else None, grow=grow,
-                      easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
+    # one TaskManager for the whole path: the stability checks (assembly, PARDISO factorisation,
+    # eigen solve), quantities of interest and outputs run on NGSolve's threads too, and PARDISO
+    # keeps one analysis for its (reproducible) thread count instead of redoing it whenever
+    # a check outside the solves ran on one thread
+    with ngs.TaskManager():
+        first = problem.solve(**newton_options) if resume is None else None
+        driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
+                         vtk_every=vtk_every, progress=progress, target=target, keep_states=keep_states, stop=stop,
+                         max_steps=max_steps, locate=stabilization is None, newton_options=newton_options,
+                         checkpoint_file=checkpoint_file)
+        previous = None
+        if start is not None and start.previous_state is not None:
+            previous = _Converged(start.previous_parameter, start.previous_state, None)
+        if resume is None:
+            driver.add_work(first.records)
+            current = driver.converged(first.iterations)
+            driver.record(current, dissipated=0.0 if stabilization else None)
+            driver.close_step(current.parameter)
+            driver.keep(method, current, previous, step, restart.scale if restart else None)
+        else:
+            driver.take_up(resume)
+            if resume.stop_reason:
+                result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events),
+                                    driver.step_work)
+                if resume.stop_reason == "min_step":
+                    raise ContinuationError(resume.message, result)
+                return result
+            current = driver.converged(resume.points[-1].iterations)  # its spectrum again: the next step's check
+            driver.close_step(current.parameter)
+        if method == "natural":
+            return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
+                            stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
+                            newton_options=newton_options)
+        return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
+                          direction=direction, scale=start.scale if start else None, grow=grow,
+                          easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
 
 
 def _corrector_work(result: NewtonResult, started: float, kind: str) -> Work:

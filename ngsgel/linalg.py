@@ -88,9 +88,9 @@ def pardiso_available() -> bool:
 _logged: set[str] = set()
 
 
-def resolve_inverse(inverse: str) -> str:
+def resolve_inverse(inverse: str, *, fallback: str = "sparsecholesky") -> str:
     """The backend an ``inverse`` option names: ``"auto"`` becomes ``"pardiso"`` where MKL is
-    installed, else ``"sparsecholesky"`` (the choice and its reason logged once per process);
+    installed, else ``fallback`` (the choice and its reason logged once per process);
     ``"pardiso"`` without MKL raises ``PardisoUnavailable`` naming the extra; other names are
     NGSolve's and pass unchanged."""
     if not (isinstance(inverse, str) and inverse):
@@ -103,8 +103,8 @@ def resolve_inverse(inverse: str) -> str:
                 "it gives the inertia for stability checks, and runs in MKL's reproducible (CNR) mode on "
                 "NGSolve's thread count")
         else:
-            inverse, reason = "sparsecholesky", (
-                "NGSolve sparsecholesky (inverse='auto'; MKL PARDISO, faster in 3D and with the inertia, "
+            inverse, reason = fallback, (
+                f"NGSolve {fallback} (inverse='auto'; MKL PARDISO, faster and with the inertia, "
                 "is not installed: pip install ngsgel[pardiso])")
         if reason not in _logged:
             _logged.add(reason)

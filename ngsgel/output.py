@@ -157,18 +157,41 @@ class VTKSeries:
     ``.pvd`` file rewritten after each write (readable while the run goes on). A mesh without
     volume elements (a shell's mid-surface in 3D) writes its surface elements. On a distributed
     mesh every rank calls ``write`` and NGSolve writes one ``.vtu`` piece per rank holding elements
-    (``<name>_proc<rank>[_step<n>].vtu``) and the ``.pvd`` index of all pieces."""
+    (``<name>_proc<rank>[_step<n>].vtu``) and the ``.pvd`` index of all pieces.
+
+    ``derived_order``: project every field that is not a ``GridFunction`` (a stress or force
+    expression) element by element onto discontinuous polynomials of this order before each
+    write, instead of evaluating it at each output point. VTK evaluates a field point by point,
+    which for deep expressions (a shell's membrane force and moment: the gel law through the
+    thickness with the surface Hessian of ``u``) costs ~100x a vectorised projection: 4.5 s against
+    0.04 s per write on the 49k-unknown half cap, more than the Newton solve of a step.
+    None (the default): evaluate them directly."""
 
     def __init__(self, mesh: ngs.Mesh, fields: Mapping[str, ngs.CoefficientFunction], path: str | Path,
-                 *, subdivision: int = 1):
+                 *, subdivision: int = 1, derived_order: int | None = None):
+        if derived_order is not None and not (isinstance(derived_order, int) and derived_order >= 0):
+            raise ValueError(f"derived_order must be None or an integer >= 0, got {derived_order!r}")
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._vtk = ngs.VTKOutput(mesh, coefs=list(fields.values()), names=list(fields.keys()),
-                                  filename=str(self.path), subdivision=subdivision)
         self._vb = ngs.VOL if mesh.comm.Sum(mesh.ne) > 0 else ngs.BND  # over all ranks: rank 0 holds none
+        self._projections: list[tuple[ngs.GridFunction, ngs.CoefficientFunction]] = []
+        coefs = []
+        for field in fields.values():
+            if derived_order is None or isinstance(field, ngs.GridFunction):
+                coefs.append(field)
+                continue
+            space = (ngs.L2 if self._vb == ngs.VOL else ngs.SurfaceL2)(mesh, order=derived_order, dim=field.dim)
+            projection = ngs.GridFunction(space)
+            self._projections.append((projection, field.Compile()))
+            coefs.append(projection.Reshape(tuple(field.dims)) if len(field.dims) > 1 else projection)
+        self._definedon = mesh.Boundaries(".*") if self._vb == ngs.BND else None
+        self._vtk = ngs.VTKOutput(mesh, coefs=coefs, names=list(fields.keys()),
+                                  filename=str(self.path), subdivision=subdivision)
         self.times: list[float] = []
 
     def write(self, time: float) -> None:
+        for projection, field in self._projections:
+            projection.Set(field, definedon=self._definedon)
         self._vtk.Do(time=time, vb=self._vb)
         self.times.append(time)
 

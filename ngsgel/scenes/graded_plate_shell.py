@@ -226,7 +226,7 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
     error, points, all_events, snaps = None, [], [], []
     leg = 0
     qoi = {"leg": lambda: leg, **rim.qoi()}
-    vtk = VTKSeries(mesh, shell.fields(), run_dir.series("shell"))
+    vtk = VTKSeries(mesh, shell.fields(), run_dir.series("shell"), derived_order=shell.order)
     with History(run_dir.file("path.csv")) as history:
         while True:
             switch = switch_all or leg == 0

@@ -462,7 +462,7 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                  history=None, vtk=None, progress=None, stage: str = "indentation", checkpoint_file=None,
                  restart: Checkpoint | None = None, resume: Checkpoint | None = None) -> PathResult:
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
-    stability, location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
+    stability (the negative count at every state, eigenpairs only where it changes), location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
     onto the bifurcated branch; steps that converge far from their predictor (``JUMP_RATIO``)
     or whose Newton solve does not halve its residual in ``STALL_WINDOW`` iterations are cut as
     failed. A path that cannot go on (a limit point under displacement control)
@@ -475,7 +475,7 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
         # a step cut to 1/16 of the first has met a state Newton cannot reach: stop there (stalled)
         return follow_path(cap.shell, parameter, method="natural", step=step, max_step=max_step, target=target,
                            min_step=step / 16,
-                           stability=StabilityOptions(eigenvalues=3, tol=tol, switch=True, length=case.t, amplitude=0.1),
+                           stability=StabilityOptions(tol=tol, switch=True, length=case.t, amplitude=0.1),
                            qoi=shell_qoi(cap), history=history, vtk=vtk, progress=progress,
                            checkpoint_file=checkpoint_file, restart=restart, resume=resume,
                            # on an unstable branch: a change whose location or branch switch failed
@@ -1088,7 +1088,7 @@ def run_shell(case: Indentation, res: ShellResolution, out: str, *, step: float 
         remove_checkpoints(run_dir, ("checkpoint*.npz", "mu_change*.npz", "axisymmetric_push.npz"))
     resumption = Resumption(resume)
     cap = ShellCap(case, res)
-    vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.series("cap"))
+    vtk = VTKSeries(cap.mesh, cap.shell.fields(), run_dir.series("cap"), derived_order=res.order)
     if polygon is not None:
         depth_end = polygon_at * case.H
     elif mu_to is None:

@@ -292,7 +292,7 @@ def follow_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDire
                                                "rim_max_abs_w")}}
     legs, snaps = [], []
     at_station = False  # the last leg ended at its target, stable: go on at full step
-    vtk = VTKSeries(mesh, shell_fields(shell), run_dir.series(f"wedge_k{k}"))
+    vtk = VTKSeries(mesh, shell_fields(shell), run_dir.series(f"wedge_k{k}"), derived_order=shell.order)
     with History(run_dir.file(HISTORIES["path"][0].format(k=k))) as history:
         while True:
             stability = StabilityOptions(eigenvalues=4, switch=False, tol=1e-4)
@@ -387,7 +387,7 @@ def relax_wedge(shell: MirrorShell, mesh: ngs.Mesh, k: int, *, run_dir: RunDirec
         raise RuntimeError(f"the wedge's start (k = {k}, {kind} = {shell.load.Get()}) is unstable "
                            f"({unstable} negative eigenvalues)")
     snaps = []
-    vtk = VTKSeries(mesh, shell_fields(shell), run_dir.series(f"wedge_k{k}"))
+    vtk = VTKSeries(mesh, shell_fields(shell), run_dir.series(f"wedge_k{k}"), derived_order=shell.order)
     with History(run_dir.file(HISTORIES["relax"][0].format(k=k))) as history:
         while True:
             rim = rim_content(wedge_circle_values(shell.displacement[2], mesh, k, radius=RIM_RADIUS))
@@ -573,7 +573,7 @@ def on_full_disk(wedge: MirrorShell, wedge_mesh: ngs.Mesh, k: int, *, p: float, 
     if vtk is not None:
         mode.vec.FV().NumPy()[:] = 0.0
         mode.vec.FV().NumPy()[shell.free_mask] = lowest.modes[:, 0]
-        VTKSeries(mesh, {**shell_fields(shell), "lowest_mode": mode.components[0]}, vtk).write(mu)
+        VTKSeries(mesh, {**shell_fields(shell), "lowest_mode": mode.components[0]}, vtk, derived_order=shell.order).write(mu)
     radii = np.linspace(0.05, RIM_RADIUS, 24)
     amplitude = [wave_number(np.array([shell.displacement[2](mesh(r * math.cos(a), r * math.sin(a), 0.0, ngs.BND))
                                        for a in 2 * math.pi * np.arange(RIM_SAMPLES) / RIM_SAMPLES]),
