@@ -562,6 +562,14 @@ class _Driver:
         (up to the first non-negative one) if the options record them or ``eigenpairs`` asks."""
         if self.stability is None:
             return None
+        # on NGSolve's threads (assembly, PARDISO factorisation, eigen solve: all deterministic),
+        # like the solves: outside a TaskManager the check ran on one thread and PARDISO redid its
+        # analysis for that thread count at every check. The path's energies and outputs stay
+        # outside, where their sums do not depend on the threads' order.
+        with ngs.TaskManager():
+            return self._spectrum(eigenpairs)
+
+    def _spectrum(self, eigenpairs: bool) -> Spectrum:
         clock = time.perf_counter
         started, work = clock(), Work("stability")
         matrix = self.problem.tangent(self.problem.state)
@@ -953,42 +961,37 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
         # at round-off, which no relative tolerance can reduce further
         newton_options.setdefault("atol", 1e-10 * step * float(np.linalg.norm(
             parallel.load_rate(problem, parameter).residual)))
-    # one TaskManager for the whole path: the stability checks (assembly, PARDISO factorisation,
-    # eigen solve), quantities of interest and outputs run on NGSolve's threads too, and PARDISO
-    # keeps one analysis for its (reproducible) thread count instead of redoing it whenever
-    # a check outside the solves ran on one thread
-    with ngs.TaskManager():
-        first = problem.solve(**newton_options) if resume is None else None
-        driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
-                         vtk_every=vtk_every, progress=progress, target=target, keep_states=keep_states, stop=stop,
-                         max_steps=max_steps, locate=stabilization is None, newton_options=newton_options,
-                         checkpoint_file=checkpoint_file)
-        previous = None
-        if start is not None and start.previous_state is not None:
-            previous = _Converged(start.previous_parameter, start.previous_state, None)
-        if resume is None:
-            driver.add_work(first.records)
-            current = driver.converged(first.iterations)
-            driver.record(current, dissipated=0.0 if stabilization else None)
-            driver.close_step(current.parameter)
-            driver.keep(method, current, previous, step, restart.scale if restart else None)
-        else:
-            driver.take_up(resume)
-            if resume.stop_reason:
-                result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events),
-                                    driver.step_work)
-                if resume.stop_reason == "min_step":
-                    raise ContinuationError(resume.message, result)
-                return result
-            current = driver.converged(resume.points[-1].iterations)  # its spectrum again: the next step's check
-            driver.close_step(current.parameter)
-        if method == "natural":
-            return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
-                            stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
-                            newton_options=newton_options)
-        return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
-                          direction=direction, scale=start.scale if start else None, grow=grow,
-                          easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
+    first = problem.solve(**newton_options) if resume is None else None
+    driver = _Driver(problem, parameter, stability=stability, qoi=qoi or {}, history=history, vtk=vtk,
+                     vtk_every=vtk_every, progress=progress, target=target, keep_states=keep_states, stop=stop,
+                     max_steps=max_steps, locate=stabilization is None, newton_options=newton_options,
+                     checkpoint_file=checkpoint_file)
+    previous = None
+    if start is not None and start.previous_state is not None:
+        previous = _Converged(start.previous_parameter, start.previous_state, None)
+    if resume is None:
+        driver.add_work(first.records)
+        current = driver.converged(first.iterations)
+        driver.record(current, dissipated=0.0 if stabilization else None)
+        driver.close_step(current.parameter)
+        driver.keep(method, current, previous, step, restart.scale if restart else None)
+    else:
+        driver.take_up(resume)
+        if resume.stop_reason:
+            result = PathResult(driver.points, driver.events, resume.stop_reason, replace(resume, events=driver.events),
+                                driver.step_work)
+            if resume.stop_reason == "min_step":
+                raise ContinuationError(resume.message, result)
+            return result
+        current = driver.converged(resume.points[-1].iterations)  # its spectrum again: the next step's check
+        driver.close_step(current.parameter)
+    if method == "natural":
+        return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
+                        stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
+                        newton_options=newton_options)
+    return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
+                      direction=direction, scale=start.scale if start else None, grow=grow,
+                      easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
 
 
 def _corrector_work(result: NewtonResult, started: float, kind: str) -> Work:
@@ -1055,9 +1058,10 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
                     None)
         return False
 
-    # the stability check's factorisation at the converged state starts the next solve
-    step_options = dict(newton_options, chord_start=True) if driver.solver is not None and system is problem \
-        else newton_options
+    # the stability check's factorisation at the converged state starts the next solve, unless the
+    # problem or the caller says chord steps there do not pay (``chord_start_after_check``)
+    chord_start = driver.solver is not None and system is problem and getattr(problem, "chord_start_after_check", True)
+    step_options = {"chord_start": True, **newton_options} if chord_start else newton_options
 
     def with_ramp_work(taken: int, ramp_result) -> None:
         """Put each ramp step's own records (predictor, failed tries, Newton) first in its path step."""

@@ -19,6 +19,7 @@ from ngsgel import (Axisymmetric, EquilibriumProblem, FloryRehnerGel, StabilityO
                     spectrum)
 from ngsgel.output import VTKSeries
 from ngsgel.stability import conjugate_force, mode_function
+from ngsgel import linalg
 from ngsgel.shell import GelShell
 
 thin_plate_deflection = shell_cases.thin_plate_deflection
@@ -525,3 +526,24 @@ def test_newton_iteration_costs_of_a_coarse_half_cap():
     assert costs["negative"] == 0 and costs["free_dofs"] == int(shell.free_mask.sum())
     with pytest.raises(ValueError, match="repeats"):
         shell_cases.newton_iteration_costs(shell, repeats=0)
+
+
+@pytest.mark.skipif(not linalg.pardiso_available(), reason="MKL PARDISO not installed (pip install ngsgel[pardiso]): "
+                    "without it the shell's stability check has no factorisation for the next solve to start from")
+def test_shell_path_steps_start_with_newton_not_with_the_stability_checks_factorisation():
+    # With PARDISO the driver's stability check factorises the converged tangent; chord steps with it
+    # at the start of the next step cut the membrane residual and leave the error in the soft
+    # bending mode the disk is about to buckle into, from which Newton crawled (537 iterations on
+    # this path at h = 0.3). The shell opts out: every step of the pre-buckling path converges
+    # in at most 3 full iterations with no chord step, and the onset is the same as UMFPACK's.
+    shell, _, _ = shell_cases.graded_plate_shell(2.0, maxh=0.4, order=3)
+    assert shell.inverse == "pardiso"
+    span = dict(method="natural", step=0.05, max_step=0.05, target=-0.05, stop=lambda point: bool(point.negative))
+    path = follow_path(shell, shell.mu, stability=StabilityOptions(tol=1e-5), **span)
+    kinds = [record.kind for step in path.steps for record in step.records]
+    assert "chord" not in kinds and "rejected chord" not in kinds
+    assert max(point.iterations for point in path.points if not point.events) <= 3
+    reference, _, _ = shell_cases.graded_plate_shell(2.0, maxh=0.4, order=3)
+    reference.inverse = "umfpack"
+    reference_path = follow_path(reference, reference.mu, stability=StabilityOptions(tol=1e-5), **span)
+    assert path.events[0].parameter == pytest.approx(reference_path.events[0].parameter, abs=2e-5)
