@@ -6,8 +6,9 @@ reference, against wall time, one row per model and resolution.
     number. Models: the axisymmetric solid with the harmonic (Fourier mode k) second variation
     (``ngsgel/scenes/microlens_onset.py``; the Fourier reduction of the 3D solid, so it is the 3D
     reference for the onset from an axisymmetric pre-buckling state), and ``GelShell`` on the
-    full cap (``shell_cases.cap_shell_onset``: continuation driver, exact negative count). The
-    3D thin cap is not run: its unknown count at the wall's resolution is printed instead.
+    full cap (``shell_cases.cap_shell_onset``: continuation driver, exact negative count), and the
+    3D thin cap (``cap_solid``: prism layers through t, ``shell_cases.cap_solid_onset``: the same
+    path, count and location, the count alone at every state).
 (b) Softer-edge graded disk (t/R = 0.01, Nv 1e-2 -> 1e-3, exponent p): critical ``mu`` and wave
     number. Models: the axisymmetric section with the harmonic scan (``graded_plate.build``,
     ``first_harmonic_instability``), ``GelShell`` on the full disk
@@ -32,10 +33,9 @@ import time
 
 from ngsgel.scenes import graded_plate
 from ngsgel.scenes import microlens_onset
-import ngsolve as ngs
-from ngsgel.scenes.shell_cases import (APEX, GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_REFERENCE, GRADED_T, H, MICROLENS_T,
-                         cap_section_stiffness, cap_shell_onset, graded_plate_shell_onset, graded_plate_solid_onset)
-from geometries import cap_solid
+from ngsgel.scenes.shell_cases import (APEX, GRADED_MU0, GRADED_N0, GRADED_NR, GRADED_REFERENCE, GRADED_T, H,
+                                      cap_section_stiffness, cap_shell_onset, cap_solid_onset,
+                                      graded_plate_shell_onset, graded_plate_solid_onset)
 from ngsgel import FloryRehnerGel
 from ngsgel.harmonic import first_harmonic_instability
 from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_parser
@@ -45,6 +45,23 @@ from ngsgel.output import History, Progress, RunDirectory, quick_run, scene_pars
 SOLID_ROWS = [dict(maxh=0.2, layers=1, order=2), dict(maxh=0.4, layers=1, order=3),
               dict(maxh=0.15, layers=1, order=2), dict(maxh=0.3, layers=1, order=3),
               dict(maxh=0.2, layers=1, order=3), dict(maxh=0.1, layers=1, order=2)]
+# 3D thin-cap rows of (a), one prism layer, cheapest first (h / patch h, unknowns, wall on one core
+# under the bench lock, load 2.3-3.6, 2026-12-06): 0.2/0.025 order 2 (7902, 5 s) and 0.15/0.02,
+# 0.1/0.0125 order 3 (30684, 63624; 168 s, 396 s) stay stable to 0.6 H (0.15/0.02: the lowest eigenvalue falls
+# from 3.8e-4 unloaded to 1.6e-6 at d/H = 0.57 and rises again, steps cut to under 1/40 of 0.1 H
+# there; 0.2/0.025 order 2: 1.5e-5 at 0.6, still falling), as the coarse shells do. The first
+# mesh found to change the count is h = 0.05 / 0.0125, order 3 (192684 unknowns, ~7.5 s per
+# Newton iteration, untimed dev runs): 0 -> 2 between d/H = 0.45 and 0.5 with k = 3 (lowest eigenvalue 8.95e-6 and
+# -1.12e-6 there: interpolated 0.493-0.494, +0.4 to +0.7 %), but the driver's location failed (a
+# solve next to the double critical point stalled ~200x above the Newton floor), so the row would
+# have no located onset; 16 min to the step that holds it, ~27 min with the failed location and
+# the lowest mode's eigen solve. Not in the list: it costs the full run half an hour for a bracket.
+CAP_SOLID_ROWS = [dict(maxh=0.2, apex_maxh=0.025, layers=1, order=2),
+                  dict(maxh=0.15, apex_maxh=0.02, layers=1, order=3),
+                  dict(maxh=0.1, apex_maxh=0.0125, layers=1, order=3)]
+# the 3D cap's search ends 22 % past the reference depth: a row stable to there is off by more than
+# 20 % anyway, and past ~0.5 H the coarse paths crawl (near the dip)
+CAP_SOLID_DEPTH_MAX = 0.6
 CAP_REFERENCE = {"depth_over_H": 0.49090, "k": 3}  # axisymmetric solid, h = 0.01, order 3 (docs/benchmarks.md)
 PLATE_REFERENCE_K = 2
 
@@ -89,19 +106,25 @@ def plate_shell_row(p: float, *, maxh: float, order: int) -> dict:
             "k": row.get("k"), "stiffness": math.nan}
 
 
+def thin_solid_row(case: str, onset: dict, value: str) -> dict:
+    """The work-precision row of a 3D thin-solid onset row (``shell_cases.graded_plate_solid_onset``,
+    ``cap_solid_onset``); ``value``: the key of its critical parameter."""
+    through = f"{onset['layers']} layer{'s' * (onset['layers'] > 1)} order {onset['order']}"
+    mesh = f"h={onset['maxh']:g}" + (f"/{onset['apex_maxh']:g}" if "apex_maxh" in onset else "")
+    return {"case": case, "model": f"3D thin solid {through}", "resolution": f"{mesh} {through}",
+            "ndof": onset["ndof"], "seconds": onset["seconds"], "value": onset.get(value, math.nan),
+            "k": onset.get("k"), "stiffness": onset.get("stiffness", math.nan)}
+
+
 def graded_plate_solid_row(p: float, *, maxh: float, layers: int, order: int) -> dict:
-    row = graded_plate_solid_onset(p, maxh=maxh, layers=layers, order=order)
-    through = f"{layers} layer{'s' * (layers > 1)} order {order}"
-    return {"case": f"plate p={p:g}", "model": f"3D thin solid {through}", "resolution": f"h={maxh:g} {through}",
-            "ndof": row["ndof"],
-            "seconds": row["seconds"], "value": row.get("mu_critical", math.nan), "k": row.get("k"),
-            "stiffness": math.nan}
+    return thin_solid_row(f"plate p={p:g}", graded_plate_solid_onset(p, maxh=maxh, layers=layers, order=order),
+                          "mu_critical")
 
 
-def cap_solid_unknowns(*, layers: int = 2, order: int = 2, maxh: float = 0.05) -> int:
-    """Unknowns of the 3D thin cap (prism layers) at t/r = 0.005, from its mesh only."""
-    mesh = cap_solid(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX).mesh
-    return ngs.VectorH1(mesh, order=order).ndof
+def cap_solid_row(*, maxh: float, apex_maxh: float, layers: int, order: int,
+                  depth_max: float = CAP_SOLID_DEPTH_MAX) -> dict:
+    return thin_solid_row("cap", cap_solid_onset(maxh=maxh, apex_maxh=apex_maxh, layers=layers, order=order,
+                                                 depth_max=depth_max), "depth_over_H")
 
 
 def with_errors(rows: list[dict]) -> list[dict]:
@@ -155,13 +178,14 @@ if __name__ == "__main__":
     run_dir = RunDirectory(args.out, params={"quick": quick, "plate_p": args.plate_p, "load": os.getloadavg()})
     progress = Progress("work_precision")
     # --quick: the graded plate (p = 2) at the coarsest resolution of each model (2-4 min); the
-    # full run adds the cap (the shell cap alone takes > 40 min on 2 loaded cores), p = 10 and
-    # the finer 3D thin solids (~5 min)
+    # full run adds the cap (the shell cap alone takes > 40 min on 2 loaded cores, the 3D thin
+    # cap rows ~10 min), p = 10 and the finer 3D thin solids (~5 min)
     plate_ps = [2.0] if quick else args.plate_p
     jobs = []
     if not quick:
         jobs += [(cap_section_row, dict(maxh=0.04, order=2)), (cap_section_row, dict(maxh=0.02, order=3)),
                  (cap_shell_row, dict(maxh=0.1, apex_maxh=0.0125, order=3))]
+        jobs += [(cap_solid_row, options) for options in CAP_SOLID_ROWS]
     for p in plate_ps:
         jobs += [(plate_section_row, dict(p=p, maxh=0.04, order=2)), (plate_shell_row, dict(p=p, maxh=0.3, order=3))]
         if not quick:
@@ -179,10 +203,6 @@ if __name__ == "__main__":
             progress(f"{row['case']:10s} {row['model']:14s} {row['resolution']:24s} {row['ndof']:7d} dofs "
                      f"{row['seconds']:7.1f} s  value {row['value']:.5f}  k {row['k']}  error {row['error']:.2e}")
     summary = {"rows": rows}
-    if not quick:
-        summary["cap_solid3d_unknowns_h0.05_2layers_order2"] = cap_solid_unknowns()
-        progress(f"3D thin cap (2 prism layers, order 2, h = 0.05): {summary['cap_solid3d_unknowns_h0.05_2layers_order2']} "
-                 "unknowns, not run")
     for case in sorted({r["case"] for r in rows}):
         shell = time_to(rows, case, "shell")
         for model in ("axisymmetric", "3D thin solid"):

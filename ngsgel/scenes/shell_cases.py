@@ -26,7 +26,7 @@ from ngsgel import Axisymmetric, EquilibriumProblem, FloryRehnerGel, Solid3D, fo
 from ngsgel.continuation import StabilityOptions
 from ngsgel.patterns import sample_on_circle, wave_number
 from ngsgel.shell import GelShell, plate_bending_stiffness
-from ngsgel.stability import conjugate_force, free_matrix, load_rate, negative_count
+from ngsgel.stability import conjugate_force, free_matrix, load_rate, mode_function, negative_count, spectrum
 
 from ngsgel.scenes.microlens import cap_waves
 
@@ -153,9 +153,16 @@ def cap_section_stiffness(*, maxh: float, layers: int = 2, order: int = 3) -> tu
     prob.fix("base")
     prob.fix("axis", "r")
     prob.prescribe("apex", "z", -depth)
+    return patch_stiffness(prob, depth), prob.space.ndof
+
+
+def patch_stiffness(problem, depth: ngs.Parameter) -> float:
+    """``F/d`` of a problem whose apex patch follows ``-depth`` in z, at ``d = STIFFNESS_DEPTH`` from
+    its current (unloaded) state (``conjugate_force``: ``dE/d(depth)``); the problem is left at
+    that state and ``depth`` at ``STIFFNESS_DEPTH``."""
     depth.Set(STIFFNESS_DEPTH)
-    prob.solve()
-    return conjugate_force(prob, depth) / STIFFNESS_DEPTH, prob.space.ndof
+    problem.solve()
+    return conjugate_force(problem, depth) / STIFFNESS_DEPTH
 
 
 def _apex_areas() -> tuple[float, float]:
@@ -202,46 +209,141 @@ def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc:
             "k_second": waves.analysis.second}
 
 
+def newton_floor_options(problem, parameter: ngs.Parameter, *, floor: float, step: float) -> dict:
+    """``newton_options`` for ``follow_path`` with the absolute Newton floor ``floor * step *
+    |dR/dparameter|`` (the driver's default factor is 1e-10; the 3D thin solids' residuals stall
+    above it, see ``graded_plate_solid_onset`` and ``cap_solid_onset``)."""
+    return {"atol": floor * step * float(np.linalg.norm(load_rate(problem, parameter).residual))}
+
+
+def _indented_cap_onset(problem, depth: ngs.Parameter, *, mesh: ngs.Mesh, displacement, wave_r: float,
+                        depth_max: float, step: float, tol: float, eigenvalues: int, progress, history,
+                        newton_floor: float | None = None) -> dict:
+    """What the shell and the 3D thin cap onsets share, from the unloaded problem whose apex patch
+    follows ``-depth`` in z: the linear-range patch stiffness ``F/d`` at ``d = STIFFNESS_DEPTH``
+    (``conjugate_force``), then the depth stepped from 0 by the continuation driver (natural
+    parameter; under displacement control the axisymmetric path has no limit point before the
+    bifurcation) with the exact negative count of the tangent at every state (``eigenvalues``
+    lowest eigenvalues recorded too; 0: the count alone), stopping at the first unstable state,
+    the first change located to ``tol H`` in depth; the critical mode's wave number from
+    ``_mode_wave`` of ``displacement(mode)`` on the sphere of radius ``wave_r`` about the
+    centre. ``newton_floor``: see ``newton_floor_options`` (None: the driver's default). Returns
+    the model-independent part of the row (no timing). A change of the count that the driver
+    could not locate (``event`` "stability change", its reason in ``event_details``) gives no
+    ``depth_over_H``: the row has the step that holds it (``stable_to_over_H``,
+    ``unstable_at_over_H``) and the wave number of the lowest mode at its unstable end."""
+    r = (1 + H**2) / (2 * H)
+    unloaded = problem.save_state()
+    stiffness = patch_stiffness(problem, depth)
+    depth.Set(0.0)
+    problem.restore_state(unloaded)
+    newton_options = None if newton_floor is None else newton_floor_options(problem, depth, floor=newton_floor,
+                                                                            step=step * H)
+    path = follow_path(problem, depth, method="natural", step=step * H, max_step=step * H, target=depth_max * H,
+                       stability=StabilityOptions(eigenvalues=eigenvalues, tol=tol * H), progress=progress,
+                       history=history, stop=lambda point: bool(point.negative), newton_options=newton_options)
+    row = {"ndof": problem.space.ndof, "stiffness": stiffness, "steps": len(path.points), "found": bool(path.events),
+           "newton_iterations": sum(p.iterations for p in path.points),
+           "lowest_eigenvalue": [(p.parameter / H, p.eigenvalues[0]) for p in path.points if p.eigenvalues]}
+    if not path.events:
+        return row
+    event = path.events[0]
+    row.update(event=event.kind, negative_after=event.negative_after, event_details=dict(event.details))
+    radii = np.linspace(0.05, 0.7, 14)
+    if event.mode is not None:
+        row.update(depth_over_H=event.parameter / H, depth_error_over_H=(event.parameter_error or 0.0) / H,
+                   **_mode_wave(displacement(event.mode), mesh, r=wave_r, zc=H - r, radii=radii))
+        return row
+    # not located (its solves failed, event_details says why): no critical depth, only the step that
+    # holds it, and the wave number of the lowest mode at the first unstable state (the problem's)
+    lowest = spectrum(problem, count=1, past_negative=True)
+    mode = mode_function(problem, lowest.modes[:, 0])
+    row.update(stable_to_over_H=path.points[-2].parameter / H, unstable_at_over_H=path.points[-1].parameter / H,
+               **_mode_wave(displacement(mode), mesh, r=wave_r, zc=H - r, radii=radii))
+    return row
+
+
 def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: float = 0.8,
                     step: float = 0.1, tol: float = 1e-3, apex_radius: float = APEX, progress=None,
                     history=None) -> dict:
     """First bifurcation of the inward-indented full cap (no symmetry imposed, so any wave number
-    can appear) with ``GelShell``: the apex patch's z displacement is stepped by the continuation
-    driver (natural parameter; under displacement control the axisymmetric path has no limit
-    point before the bifurcation), the exact negative count of the shell's tangent is checked at
-    every state, and the first change is located to ``tol H`` in depth. Returns the critical
-    ``d/H``, the critical mode's wave number (``_mode_wave``), the linear-range patch stiffness,
-    unknowns and wall time (mesh excluded); also when no bifurcation occurs up to
-    ``depth_max H`` (``found`` False; the lowest eigenvalue along the path is in the row).
-    ``apex_radius``: radius of the shell's rigid patch (the solid's is ``APEX``)."""
+    can appear) with ``GelShell`` (``_indented_cap_onset``: the exact negative count of the
+    shell's tangent at every state and its two lowest eigenvalues, the first change located to
+    ``tol H`` in depth). Returns the critical ``d/H``, the critical mode's wave number
+    (``_mode_wave``, mid-surface), the linear-range patch stiffness, unknowns and wall time
+    (mesh excluded); also when no bifurcation occurs up to ``depth_max H`` (``found`` False; the
+    lowest eigenvalue along the path is in the row). ``apex_radius``: radius of the shell's
+    rigid patch (the solid's is ``APEX``)."""
     start = time.perf_counter()
     bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=apex_radius, apex_maxh=apex_maxh, curve_order=order)
     mesh_seconds = time.perf_counter() - start
-    r = (1 + H**2) / (2 * H)
     shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=MICROLENS_T, mu=0.0,
                      order=order)
     shell.clamp("base")
     depth = ngs.Parameter(0.0)
     shell.prescribe_region("apex", "z", -depth)
-    unloaded = shell.save_state()
-    depth.Set(STIFFNESS_DEPTH)
-    shell.solve()
-    stiffness = conjugate_force(shell, depth) / STIFFNESS_DEPTH
-    depth.Set(0.0)
-    shell.restore_state(unloaded)
-    path = follow_path(shell, depth, method="natural", step=step * H, max_step=step * H, target=depth_max * H,
-                       stability=StabilityOptions(eigenvalues=2, tol=tol * H), progress=progress,
-                       history=history, stop=lambda point: bool(point.negative))
+    onset = _indented_cap_onset(shell, depth, mesh=bundle.mesh, displacement=lambda mode: mode.components[0],
+                                wave_r=(1 + H**2) / (2 * H), depth_max=depth_max, step=step, tol=tol,
+                                eigenvalues=2, progress=progress, history=history)
     row = {"model": "shell", "order": order, "maxh": maxh, "apex_maxh": apex_maxh, "apex_radius": apex_radius,
-           "ndof": shell.space.ndof, "elements": bundle.mesh.GetNE(ngs.BND), "stiffness": stiffness,
-           "steps": len(path.points), "found": bool(path.events),
-           "lowest_eigenvalue": [(p.parameter / H, p.eigenvalues[0]) for p in path.points]}
-    if path.events:
-        event = path.events[0]
-        row.update(depth_over_H=event.parameter / H, depth_error_over_H=(event.parameter_error or 0.0) / H,
-                   event=event.kind, negative_after=event.negative_after,
-                   **_mode_wave(event.mode.components[0], bundle.mesh, r=r, zc=H - r,
-                                radii=np.linspace(0.05, 0.7, 14)))
+           "elements": bundle.mesh.GetNE(ngs.BND), **onset}
+    row["seconds"] = time.perf_counter() - start - mesh_seconds
+    return row
+
+
+def indented_cap_solid(*, maxh: float, apex_maxh: float, layers: int,
+                       order: int) -> tuple[EquilibriumProblem, ngs.Parameter, ngs.Mesh]:
+    """The microlens cap (t = 0.005 r, mu = 0) as a 3D thin solid (``cap_solid``: ``layers`` prism
+    layers through t under triangles of size ``maxh``, ``apex_maxh`` on the patch of radius
+    ``APEX``; elements and geometry of ``order``), loaded as the axisymmetric solid
+    (``cap_section_stiffness``, ``microlens.AxisymmetricCap``): base face clamped, the z
+    displacement of the apex patch of the outer face prescribed to ``-depth`` (x, y and the inner
+    face free). Not yet solved; returns the problem, ``depth`` (0) and the mesh."""
+    mesh = cap_solid(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX, apex_maxh=apex_maxh,
+                     curve_order=order).mesh
+    problem = EquilibriumProblem(mesh, kinematics=Solid3D(), materials=GEL, lam0=GEL.lam_free(0.0), mu=0.0,
+                                 order=order)
+    problem.fix("base")
+    depth = ngs.Parameter(0.0)
+    problem.prescribe("apex", "z", -depth)
+    return problem, depth, mesh
+
+
+def cap_solid_onset(*, maxh: float, apex_maxh: float, layers: int, order: int, depth_max: float = 0.8,
+                    step: float = 0.1, tol: float = 1e-3, newton_floor: float = 1e-7, eigenvalues: int = 0,
+                    progress=None, history=None) -> dict:
+    """The onset of ``cap_shell_onset`` (``_indented_cap_onset``: same path, tolerance, wave
+    analysis) of the full cap as a 3D thin solid (``indented_cap_solid``; its patch stiffness has
+    the axisymmetric solid's definition, ``cap_section_stiffness``). The stability check is the
+    exact negative count alone (``StabilityOptions()``: with PARDISO the count of the
+    factorisation the next Newton solve starts from; eigenpairs only where the count changes):
+    one 3D shift-invert eigen solve costs ~10 Newton iterations (docs/benchmarks.md). The wave
+    number is read from the critical mode's normal displacement on the outer face (the sphere of
+    radius r + t/2, a boundary of the mesh where ``cap_waves`` can sample; a bending mode's
+    normal displacement is the same through t to O(t/r)). Returns the row of
+    ``cap_shell_onset`` (``lowest_eigenvalue`` empty unless ``eigenvalues`` > 0 asks for that
+    many lowest eigenvalues at every state, as the shell's: a diagnosis of a path that stays
+    stable, at the cost of an eigen solve per state).
+
+    ``newton_floor`` (``newton_floor_options``): with the driver's 1e-10 (1.5e-15 here) the
+    h = 0.2 / 0.025, one-layer, order-3 path stopped at d/H = 0.71: the line search found no
+    decrease from a residual of 9.5e-13 (6e-8 of a step's load residual, round-off), as on the
+    3D thin plate, whose floor of 1e-7 this takes. Not looser: at h = 0.05 / 0.0125 (order 3, one
+    layer) the state at d/H = 0.5 has two negative eigenvalues (the lowest -1.1e-6, 3.8e-4
+    unloaded) with 1e-7 and none with 1e-4 (5 Newton iterations instead of 12). With 1e-7 the
+    location of that change failed there in two runs (steps 0.1 H and 0.05 H: a solve next to the
+    double critical point, the k = 3 pair, stalled 180-240 times above the floor after 30
+    iterations): the row then has the bracketing step instead, and the lowest mode's eigen solve
+    (~6 min at 192684 unknowns, one core) gives its wave number."""
+    start = time.perf_counter()
+    problem, depth, mesh = indented_cap_solid(maxh=maxh, apex_maxh=apex_maxh, layers=layers, order=order)
+    mesh_seconds = time.perf_counter() - start
+    onset = _indented_cap_onset(problem, depth, mesh=mesh, displacement=lambda mode: problem.parts(mode)[0],
+                                wave_r=(1 + H**2) / (2 * H) + MICROLENS_T / 2, depth_max=depth_max, step=step,
+                                tol=tol, eigenvalues=eigenvalues, progress=progress, history=history,
+                                newton_floor=newton_floor)
+    row = {"model": "solid3d", "order": order, "maxh": maxh, "apex_maxh": apex_maxh, "apex_radius": APEX,
+           "layers": layers, "elements": mesh.ne, **onset}
     row["seconds"] = time.perf_counter() - start - mesh_seconds
     return row
 
@@ -536,9 +638,9 @@ def graded_plate_solid_onset(p: float, *, maxh: float, layers: int, order: int, 
     start = time.perf_counter()
     problem, mesh, pins = graded_plate_solid(p, maxh=maxh, layers=layers, order=order)
     mesh_seconds = time.perf_counter() - start
-    floor = newton_floor * step * float(np.linalg.norm(load_rate(problem, problem.mu).residual))
-    path, onset = _graded_onset_path(problem, mu_max=mu_max, step=step, tol=tol, progress=progress,
-                                     history=history, newton_options={"atol": floor})
+    path, onset = _graded_onset_path(problem, mu_max=mu_max, step=step, tol=tol, progress=progress, history=history,
+                                     newton_options=newton_floor_options(problem, problem.mu, floor=newton_floor,
+                                                                         step=step))
     row = {"model": "solid3d", "order": order, "maxh": maxh, "p": p, "layers": layers, "elements": mesh.ne,
            **onset}
     if path.events:
