@@ -371,7 +371,8 @@ def newton_iteration_costs(problem, *, repeats: int = 3) -> dict:
     check at the problem's current state: ``tangent`` (assembly), ``residual`` (one evaluation),
     ``factorisation`` (numeric, symbolic factorisation reused as in a path), ``solve`` (one
     triangular solve), ``stability`` (exact negative count of the free tangent, as
-    ``follow_path`` does at every state); ``iteration``: their sum. Also the negative count and
+    ``follow_path`` does at every state: the factorisation's inertia where the solver has it,
+    else SuperLU's); ``iteration``: their sum. Also the negative count and
     the free unknowns. Run with one thread to compare variants."""
     if not isinstance(repeats, int) or repeats < 1:
         raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
@@ -397,7 +398,8 @@ def newton_iteration_costs(problem, *, repeats: int = 3) -> dict:
         dx.data = inverse * r
         samples["solve"].append(time.perf_counter() - start)
         start = time.perf_counter()
-        negative = negative_count(free_matrix(K, problem.free_mask))
+        # a solver with the inertia (PARDISO) has the count already: follow_path reads it there
+        negative = solver.inertia[1] if solver.inertia is not None else negative_count(free_matrix(K, problem.free_mask))
         samples["stability"].append(time.perf_counter() - start)
     row = {part: float(np.median(values)) for part, values in samples.items()}
     row["iteration"] = sum(row[part] for part in NEWTON_PARTS)
