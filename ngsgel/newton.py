@@ -152,15 +152,15 @@ class LinearSolver:
     """Sparse direct solve on the free dofs that keeps its symbolic factorisation between calls
     as long as the matrix object stays the same.
 
-    ``inverse``: ``"auto"`` (MKL PARDISO if installed, else NGSolve's ``fallback``; the
+    ``inverse``: ``"auto"`` (MKL PARDISO if installed, else NGSolve's ``"sparsecholesky"``; the
     choice and its reason are logged once per process by the ``ngsgel.linalg`` logger),
     ``"pardiso"`` (``ngsgel.linalg.PardisoLDLT``: the optional extra ``ngsgel[pardiso]``; its
     factorisations also give the inertia of the free tangent) or any NGSolve inverse by name
     (``"sparsecholesky"``, ``"umfpack"``, ...)."""
 
-    def __init__(self, freedofs: ngs.BitArray, *, inverse: str = "sparsecholesky", fallback: str = "sparsecholesky"):
+    def __init__(self, freedofs: ngs.BitArray, *, inverse: str = "sparsecholesky"):
         self.freedofs = freedofs
-        self.inverse = linalg.resolve_inverse(inverse, fallback=fallback)
+        self.inverse = linalg.resolve_inverse(inverse)
         self._matrix = None
         self._inv = None
         self._pardiso = None

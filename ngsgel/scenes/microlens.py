@@ -462,8 +462,9 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
                  history=None, vtk=None, progress=None, stage: str = "indentation", checkpoint_file=None,
                  restart: Checkpoint | None = None, resume: Checkpoint | None = None) -> PathResult:
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
-    stability (the negative count at every state, eigenpairs only where it changes), location of every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch
-    onto the bifurcated branch; steps that converge far from their predictor (``JUMP_RATIO``)
+    stability (the negative count at every state, eigenpairs only where it changes), location of
+    every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch onto the bifurcated
+    branch; steps that converge far from their predictor (``JUMP_RATIO``)
     or whose Newton solve does not halve its residual in ``STALL_WINDOW`` iterations are cut as
     failed. A path that cannot go on (a limit point under displacement control)
     ends with ``stop_reason`` "stalled: ..." instead of raising; one left on an unstable branch (the
