@@ -117,17 +117,26 @@ class _Cap:
 
 def cap_solid(*, R: float = 1.0, H: float, t: float, maxh: float, layers: int = 2,
               apex_radius: float | None = None, apex_maxh: float | None = None,
-              curve_order: int = 2) -> MeshBundle:
+              curve_order: int = 2, half: bool = False) -> MeshBundle:
     """3D thin spherical cap meshed by ``layers`` prism layers through ``t``.
 
     ``0 < H <= R``, ``0 < t < r``; ``apex_radius`` (default ``0.05 R``) in ``(0, R)``;
     ``apex_maxh`` refines the apex patches.  Region ``"gel"``; boundaries ``"outer"``,
-    ``"apex"``, ``"inner"``, ``"apex_inner"``, ``"base"``.
+    ``"apex"``, ``"inner"``, ``"apex_inner"``, ``"base"``. ``half``: only the part with
+    ``y >= 0``, the two cut faces in the plane ``y = 0`` named ``"sym"`` (as ``cap_midsurface``);
+    measures halved.
     """
     cap = _Cap(R, H, t, apex_radius, apex_maxh, maxh, curve_order)
     layers = require_int("layers", layers, 1)
+    if not isinstance(half, bool):
+        raise ValueError(f"half must be True or False, got {half!r}")
     h, h_apex = cap.sizes(layers)
-    shape = revolve(cap.section_face())
+    shape = revolve(cap.section_face(), 180.0 if half else 360.0)
+    if half:
+        for face in shape.faces:
+            (_, y0, _), (_, y1, _) = face.bounding_box
+            if abs(y0) < 1e-6 * cap.R and abs(y1) < 1e-6 * cap.R:
+                face.name = SYM
     shape.mat(GEL)
     for name in (APEX, APEX_INNER):
         named_face(shape, name).maxh = h_apex
@@ -136,10 +145,11 @@ def cap_solid(*, R: float = 1.0, H: float, t: float, maxh: float, layers: int = 
     identify_layers(shape, [(OUTER, INNER), (APEX, APEX_INNER)], name=_LAYERS,
                     trafo=occ.gp_Trsf.Scale(occ.Pnt(0, 0, cap.zc), ratio))
     geometry, ngmesh = layered_mesh(shape, maxh=h, layers={_LAYERS: layers})
-    volume = cap.volume()
+    volume = cap.volume() * (0.5 if half else 1.0)
     return MeshBundle(mesh=to_ngsolve(ngmesh, cap.curve_order), geometry=geometry,
                       model=SOLID3D, exact_measure=volume, exact_volume=volume,
-                      params=cap.params(layers=layers), boundaries=SOLID_BOUNDARIES,
+                      params={**cap.params(layers=layers), "half": half},
+                      boundaries=SOLID_BOUNDARIES + ((SYM,) if half else ()),
                       regions=(GEL,), region_measures={GEL: volume})
 
 

@@ -413,13 +413,14 @@ def curved_face(pieces: Sequence[tuple[str, Sequence[Point2]]], *, region: str) 
     return face
 
 
-def revolve(section: occ.Face) -> occ.TopoDS_Shape:
-    """Solid of revolution about the z axis of an r-z section drawn with x = r, y = z.
+def revolve(section: occ.Face, angle: float = 360.0) -> occ.TopoDS_Shape:
+    """Solid of revolution about the z axis of an r-z section drawn with x = r, y = z, swept
+    by ``angle`` degrees from the plane y = 0 towards +y (180: the half y >= 0).
 
     Each face of the solid carries the name of the section edge that sweeps it.
     """
     upright = section.Rotate(occ.Axis((0, 0, 0), occ.X), 90)
-    return upright.Revolve(occ.Axis((0, 0, 0), occ.Z), 360)
+    return upright.Revolve(occ.Axis((0, 0, 0), occ.Z), angle)
 
 
 def named_face(shape: occ.TopoDS_Shape, name: str) -> occ.Face:

@@ -56,9 +56,19 @@ SOLID_ROWS = [dict(maxh=0.2, layers=1, order=2), dict(maxh=0.4, layers=1, order=
 # solve next to the double critical point stalled ~200x above the Newton floor), so the row would
 # have no located onset; 16 min to the step that holds it, ~27 min with the failed location and
 # the lowest mode's eigen solve. Not in the list: it costs the full run half an hour for a bracket.
+# The half cap (mirror plane y = 0) keeps one mode of each pair, so the onset is a simple
+# eigenvalue and is located: h = 0.05 / 0.0125 order 3, 93504 unknowns, d/H 0.49110 (+0.04 %),
+# k = 3, 137 s on 2 quiet threads (2026-12-06). Its location needs the Newton floor 1e-6: with
+# 1e-7 a solve next to the critical state ended in a failed line search at residual 9.1e-12.
 CAP_SOLID_ROWS = [dict(maxh=0.2, apex_maxh=0.025, layers=1, order=2),
                   dict(maxh=0.15, apex_maxh=0.02, layers=1, order=3),
-                  dict(maxh=0.1, apex_maxh=0.0125, layers=1, order=3)]
+                  dict(maxh=0.1, apex_maxh=0.0125, layers=1, order=3),
+                  dict(maxh=0.05, apex_maxh=0.0125, layers=1, order=3, half=True, newton_floor=1e-6)]
+# the shell's cap rows: the full cap at h = 0.1 (stable past 1.12 x the reference depth) and the
+# half cap on the 3D half cap's mesh size (2026-12-06, 2 quiet threads: 52635 unknowns, count
+# 0 -> 1 in (0.5, 0.6] H, k = 4 at 0.6, location failed, 213 s - slower than the 3D half cap,
+# which is within 0.04 %)
+CAP_SHELL_ROWS = [dict(maxh=0.1, apex_maxh=0.0125, order=3), dict(maxh=0.05, apex_maxh=0.01, order=3, half=True)]
 # the 3D cap's search ends 22 % past the reference depth: a row stable to there is off by more than
 # 20 % anyway, and past ~0.5 H the coarse paths crawl (near the dip)
 CAP_SOLID_DEPTH_MAX = 0.6
@@ -75,9 +85,10 @@ def cap_section_row(*, maxh: float, order: int) -> dict:
             "k": onset["k"], "stiffness": stiffness}
 
 
-def cap_shell_row(*, maxh: float, apex_maxh: float, order: int) -> dict:
-    row = cap_shell_onset(maxh=maxh, apex_maxh=apex_maxh, order=order)
-    return {"case": "cap", "model": f"shell order {order}", "resolution": f"h={maxh:g}/{apex_maxh:g} order {order}",
+def cap_shell_row(*, maxh: float, apex_maxh: float, order: int, half: bool = False) -> dict:
+    row = cap_shell_onset(maxh=maxh, apex_maxh=apex_maxh, order=order, half=half)
+    return {"case": "cap", "model": f"shell order {order}",
+            "resolution": f"{'half cap ' * half}h={maxh:g}/{apex_maxh:g} order {order}",
             "ndof": row["ndof"], "seconds": row["seconds"], "value": row.get("depth_over_H", math.nan),
             "k": row.get("k"), "stiffness": row["stiffness"]}
 
@@ -110,7 +121,8 @@ def thin_solid_row(case: str, onset: dict, value: str) -> dict:
     """The work-precision row of a 3D thin-solid onset row (``shell_cases.graded_plate_solid_onset``,
     ``cap_solid_onset``); ``value``: the key of its critical parameter."""
     through = f"{onset['layers']} layer{'s' * (onset['layers'] > 1)} order {onset['order']}"
-    mesh = f"h={onset['maxh']:g}" + (f"/{onset['apex_maxh']:g}" if "apex_maxh" in onset else "")
+    mesh = ("half cap " if onset.get("half") else "") + f"h={onset['maxh']:g}" + (
+        f"/{onset['apex_maxh']:g}" if "apex_maxh" in onset else "")
     return {"case": case, "model": f"3D thin solid {through}", "resolution": f"{mesh} {through}",
             "ndof": onset["ndof"], "seconds": onset["seconds"], "value": onset.get(value, math.nan),
             "k": onset.get("k"), "stiffness": onset.get("stiffness", math.nan)}
@@ -121,10 +133,11 @@ def graded_plate_solid_row(p: float, *, maxh: float, layers: int, order: int) ->
                           "mu_critical")
 
 
-def cap_solid_row(*, maxh: float, apex_maxh: float, layers: int, order: int,
-                  depth_max: float = CAP_SOLID_DEPTH_MAX) -> dict:
+def cap_solid_row(*, maxh: float, apex_maxh: float, layers: int, order: int, half: bool = False,
+                  newton_floor: float = 1e-7, depth_max: float = CAP_SOLID_DEPTH_MAX) -> dict:
     return thin_solid_row("cap", cap_solid_onset(maxh=maxh, apex_maxh=apex_maxh, layers=layers, order=order,
-                                                 depth_max=depth_max), "depth_over_H")
+                                                 half=half, newton_floor=newton_floor, depth_max=depth_max),
+                          "depth_over_H")
 
 
 def with_errors(rows: list[dict]) -> list[dict]:
@@ -178,13 +191,13 @@ if __name__ == "__main__":
     run_dir = RunDirectory(args.out, params={"quick": quick, "plate_p": args.plate_p, "load": os.getloadavg()})
     progress = Progress("work_precision")
     # --quick: the graded plate (p = 2) at the coarsest resolution of each model (2-4 min); the
-    # full run adds the cap (the shell cap alone takes > 40 min on 2 loaded cores, the 3D thin
-    # cap rows ~10 min), p = 10 and the finer 3D thin solids (~5 min)
+    # full run adds the cap (shell rows ~5 min, 3D thin cap rows ~12 min on 2 cores), p = 10 and
+    # the finer 3D thin solids (~5 min)
     plate_ps = [2.0] if quick else args.plate_p
     jobs = []
     if not quick:
         jobs += [(cap_section_row, dict(maxh=0.04, order=2)), (cap_section_row, dict(maxh=0.02, order=3)),
-                 (cap_shell_row, dict(maxh=0.1, apex_maxh=0.0125, order=3))]
+                 *[(cap_shell_row, options) for options in CAP_SHELL_ROWS]]
         jobs += [(cap_solid_row, options) for options in CAP_SOLID_ROWS]
     for p in plate_ps:
         jobs += [(plate_section_row, dict(p=p, maxh=0.04, order=2)), (plate_shell_row, dict(p=p, maxh=0.3, order=3))]

@@ -201,10 +201,11 @@ def cap_shell_pressure_stiffness(*, maxh: float, apex_maxh: float, order: int) -
 
 
 def _mode_wave(mode_u: ngs.CoefficientFunction, mesh: ngs.Mesh, *, r: float, zc: float,
-               radii: np.ndarray) -> dict:
-    """Wave number of a critical mode of the full cap (``microlens.cap_waves``: its normal
-    displacement on circles of the mid-surface, the circle of the largest non-axisymmetric part)."""
-    waves = cap_waves(mode_u, mesh, r=r, zc=zc, half=False, radii=radii)
+               radii: np.ndarray, half: bool = False) -> dict:
+    """Wave number of a critical mode of the cap, whole or ``half`` (``microlens.cap_waves``: its
+    normal displacement on circles of the mid-surface, the circle of the largest
+    non-axisymmetric part)."""
+    waves = cap_waves(mode_u, mesh, r=r, zc=zc, half=half, radii=radii)
     return {"k": waves.analysis.k, "purity": waves.analysis.purity, "mode_radius": waves.radius,
             "k_second": waves.analysis.second}
 
@@ -218,7 +219,7 @@ def newton_floor_options(problem, parameter: ngs.Parameter, *, floor: float, ste
 
 def _indented_cap_onset(problem, depth: ngs.Parameter, *, mesh: ngs.Mesh, displacement, wave_r: float,
                         depth_max: float, step: float, tol: float, eigenvalues: int, progress, history,
-                        newton_floor: float | None = None) -> dict:
+                        newton_floor: float | None = None, half: bool = False) -> dict:
     """What the shell and the 3D thin cap onsets share, from the unloaded problem whose apex patch
     follows ``-depth`` in z: the linear-range patch stiffness ``F/d`` at ``d = STIFFNESS_DEPTH``
     (``conjugate_force``), then the depth stepped from 0 by the continuation driver (natural
@@ -227,14 +228,15 @@ def _indented_cap_onset(problem, depth: ngs.Parameter, *, mesh: ngs.Mesh, displa
     lowest eigenvalues recorded too; 0: the count alone), stopping at the first unstable state,
     the first change located to ``tol H`` in depth; the critical mode's wave number from
     ``_mode_wave`` of ``displacement(mode)`` on the sphere of radius ``wave_r`` about the
-    centre. ``newton_floor``: see ``newton_floor_options`` (None: the driver's default). Returns
+    centre. ``half``: the half cap with its mirror plane (stiffness of the whole cap: twice the
+    half's). ``newton_floor``: see ``newton_floor_options`` (None: the driver's default). Returns
     the model-independent part of the row (no timing). A change of the count that the driver
     could not locate (``event`` "stability change", its reason in ``event_details``) gives no
     ``depth_over_H``: the row has the step that holds it (``stable_to_over_H``,
     ``unstable_at_over_H``) and the wave number of the lowest mode at its unstable end."""
     r = (1 + H**2) / (2 * H)
     unloaded = problem.save_state()
-    stiffness = patch_stiffness(problem, depth)
+    stiffness = patch_stiffness(problem, depth) * (2.0 if half else 1.0)
     depth.Set(0.0)
     problem.restore_state(unloaded)
     newton_options = None if newton_floor is None else newton_floor_options(problem, depth, floor=newton_floor,
@@ -252,22 +254,23 @@ def _indented_cap_onset(problem, depth: ngs.Parameter, *, mesh: ngs.Mesh, displa
     radii = np.linspace(0.05, 0.7, 14)
     if event.mode is not None:
         row.update(depth_over_H=event.parameter / H, depth_error_over_H=(event.parameter_error or 0.0) / H,
-                   **_mode_wave(displacement(event.mode), mesh, r=wave_r, zc=H - r, radii=radii))
+                   **_mode_wave(displacement(event.mode), mesh, r=wave_r, zc=H - r, radii=radii, half=half))
         return row
     # not located (its solves failed, event_details says why): no critical depth, only the step that
     # holds it, and the wave number of the lowest mode at the first unstable state (the problem's)
     lowest = spectrum(problem, count=1, past_negative=True)
     mode = mode_function(problem, lowest.modes[:, 0])
     row.update(stable_to_over_H=path.points[-2].parameter / H, unstable_at_over_H=path.points[-1].parameter / H,
-               **_mode_wave(displacement(mode), mesh, r=wave_r, zc=H - r, radii=radii))
+               **_mode_wave(displacement(mode), mesh, r=wave_r, zc=H - r, radii=radii, half=half))
     return row
 
 
 def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: float = 0.8,
-                    step: float = 0.1, tol: float = 1e-3, apex_radius: float = APEX, progress=None,
-                    history=None) -> dict:
+                    step: float = 0.1, tol: float = 1e-3, apex_radius: float = APEX, half: bool = False,
+                    progress=None, history=None) -> dict:
     """First bifurcation of the inward-indented full cap (no symmetry imposed, so any wave number
-    can appear) with ``GelShell`` (``_indented_cap_onset``: the exact negative count of the
+    can appear; ``half``: the half cap with its mirror plane, which keeps one of each pair of
+    ``cos k theta`` / ``sin k theta`` modes, so a critical pair becomes a simple eigenvalue) with ``GelShell`` (``_indented_cap_onset``: the exact negative count of the
     shell's tangent at every state and its two lowest eigenvalues, the first change located to
     ``tol H`` in depth). Returns the critical ``d/H``, the critical mode's wave number
     (``_mode_wave``, mid-surface), the linear-range patch stiffness, unknowns and wall time
@@ -275,35 +278,41 @@ def cap_shell_onset(*, maxh: float, apex_maxh: float, order: int, depth_max: flo
     lowest eigenvalue along the path is in the row). ``apex_radius``: radius of the shell's
     rigid patch (the solid's is ``APEX``)."""
     start = time.perf_counter()
-    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=apex_radius, apex_maxh=apex_maxh, curve_order=order)
+    bundle = cap_midsurface(H=H, maxh=maxh, apex_radius=apex_radius, apex_maxh=apex_maxh, curve_order=order,
+                            half=half)
     mesh_seconds = time.perf_counter() - start
     shell = GelShell(bundle.mesh, material=GEL, lam0=GEL.lam_free(0.0), thickness=MICROLENS_T, mu=0.0,
                      order=order)
     shell.clamp("base")
+    if half:
+        shell.symmetry("sym", normal="y")
     depth = ngs.Parameter(0.0)
     shell.prescribe_region("apex", "z", -depth)
     onset = _indented_cap_onset(shell, depth, mesh=bundle.mesh, displacement=lambda mode: mode.components[0],
                                 wave_r=(1 + H**2) / (2 * H), depth_max=depth_max, step=step, tol=tol,
-                                eigenvalues=2, progress=progress, history=history)
+                                eigenvalues=2, progress=progress, history=history, half=half)
     row = {"model": "shell", "order": order, "maxh": maxh, "apex_maxh": apex_maxh, "apex_radius": apex_radius,
-           "elements": bundle.mesh.GetNE(ngs.BND), **onset}
+           "half": half, "elements": bundle.mesh.GetNE(ngs.BND), **onset}
     row["seconds"] = time.perf_counter() - start - mesh_seconds
     return row
 
 
-def indented_cap_solid(*, maxh: float, apex_maxh: float, layers: int,
-                       order: int) -> tuple[EquilibriumProblem, ngs.Parameter, ngs.Mesh]:
+def indented_cap_solid(*, maxh: float, apex_maxh: float, layers: int, order: int,
+                       half: bool = False) -> tuple[EquilibriumProblem, ngs.Parameter, ngs.Mesh]:
     """The microlens cap (t = 0.005 r, mu = 0) as a 3D thin solid (``cap_solid``: ``layers`` prism
     layers through t under triangles of size ``maxh``, ``apex_maxh`` on the patch of radius
     ``APEX``; elements and geometry of ``order``), loaded as the axisymmetric solid
     (``cap_section_stiffness``, ``microlens.AxisymmetricCap``): base face clamped, the z
     displacement of the apex patch of the outer face prescribed to ``-depth`` (x, y and the inner
-    face free). Not yet solved; returns the problem, ``depth`` (0) and the mesh."""
+    face free). ``half``: the half cap ``y >= 0``, ``u_y = 0`` on its mirror plane. Not yet
+    solved; returns the problem, ``depth`` (0) and the mesh."""
     mesh = cap_solid(H=H, t=MICROLENS_T, maxh=maxh, layers=layers, apex_radius=APEX, apex_maxh=apex_maxh,
-                     curve_order=order).mesh
+                     curve_order=order, half=half).mesh
     problem = EquilibriumProblem(mesh, kinematics=Solid3D(), materials=GEL, lam0=GEL.lam_free(0.0), mu=0.0,
                                  order=order)
     problem.fix("base")
+    if half:
+        problem.prescribe("sym", "y", 0.0)
     depth = ngs.Parameter(0.0)
     problem.prescribe("apex", "z", -depth)
     return problem, depth, mesh
@@ -311,9 +320,9 @@ def indented_cap_solid(*, maxh: float, apex_maxh: float, layers: int,
 
 def cap_solid_onset(*, maxh: float, apex_maxh: float, layers: int, order: int, depth_max: float = 0.8,
                     step: float = 0.1, tol: float = 1e-3, newton_floor: float = 1e-7, eigenvalues: int = 0,
-                    progress=None, history=None) -> dict:
+                    half: bool = False, progress=None, history=None) -> dict:
     """The onset of ``cap_shell_onset`` (``_indented_cap_onset``: same path, tolerance, wave
-    analysis) of the full cap as a 3D thin solid (``indented_cap_solid``; its patch stiffness has
+    analysis) of the full cap (or the ``half`` cap, as ``cap_shell_onset``) as a 3D thin solid (``indented_cap_solid``; its patch stiffness has
     the axisymmetric solid's definition, ``cap_section_stiffness``). The stability check is the
     exact negative count alone (``StabilityOptions()``: with PARDISO the count of the
     factorisation the next Newton solve starts from; eigenpairs only where the count changes):
@@ -334,16 +343,18 @@ def cap_solid_onset(*, maxh: float, apex_maxh: float, layers: int, order: int, d
     location of that change failed there in two runs (steps 0.1 H and 0.05 H: a solve next to the
     double critical point, the k = 3 pair, stalled 180-240 times above the floor after 30
     iterations): the row then has the bracketing step instead, and the lowest mode's eigen solve
-    (~6 min at 192684 unknowns, one core) gives its wave number."""
+    (~6 min at 192684 unknowns, one core) gives its wave number. The ``half`` cap at the same mesh
+    size has a simple critical eigenvalue; its location failed with 1e-7 (a line search next to
+    the critical state found no decrease from 9.1e-12) and succeeded with 1e-6 (d/H 0.49110)."""
     start = time.perf_counter()
-    problem, depth, mesh = indented_cap_solid(maxh=maxh, apex_maxh=apex_maxh, layers=layers, order=order)
+    problem, depth, mesh = indented_cap_solid(maxh=maxh, apex_maxh=apex_maxh, layers=layers, order=order, half=half)
     mesh_seconds = time.perf_counter() - start
     onset = _indented_cap_onset(problem, depth, mesh=mesh, displacement=lambda mode: problem.parts(mode)[0],
                                 wave_r=(1 + H**2) / (2 * H) + MICROLENS_T / 2, depth_max=depth_max, step=step,
                                 tol=tol, eigenvalues=eigenvalues, progress=progress, history=history,
-                                newton_floor=newton_floor)
+                                newton_floor=newton_floor, half=half)
     row = {"model": "solid3d", "order": order, "maxh": maxh, "apex_maxh": apex_maxh, "apex_radius": APEX,
-           "layers": layers, "elements": mesh.ne, **onset}
+           "layers": layers, "half": half, "elements": mesh.ne, **onset}
     row["seconds"] = time.perf_counter() - start - mesh_seconds
     return row
 
