@@ -236,13 +236,12 @@ GRADED_DOCUMENTED = [
         "k = 2, 2, 2, 6 at h = 0.2; p = 10: k = 8 at h = 0.15 and 0.1", verdict="documented",
         converged="p = 0.25, 0.75, 2: two meshes; p = 10: not (6 -> 8 -> 8)",
         docs="docs/graded.md#softer-edge-through-the-snaps-to-mu--0-shell-half-disk-added-2026-12-02"),
-    Row("softer edge, p = 10, h = 0.2: end state near mu = 0 is decided by round-off", "k = 8",
-        "k = 6 with purity 0.408 (default run, bit for bit: UMFPACK, seeded eigen solves) or 0.631 (the same "
-        "path to the second snap; its first step after it converges instead of being halved when the "
-        "factorisation's round-off differs: sparsecholesky runs)", verdict="documented",
-        converged="both states: two runs each",
-        explanation="a fold near mu = -0.0016 where a Newton step's success flips with round-off; both end "
-                    "states are stable k = 6 patterns with 6 crests",
+    Row("softer edge, p = 10, h = 0.2: end state near mu = 0", "k = 8",
+        "k = 6 with purity 0.408, 6 crests, stable (default run, with PARDISO and with UMFPACK); the "
+        "purity-0.631 state of earlier runs came from a branch jump in the first step after the second snap",
+        verdict="documented", converged="the branch followed in steps of 1e-4 ends there too (to 3e-9)",
+        explanation="the legs after a snap now start at the snap overshoot (1e-3); started at 0.01 the last "
+                    "leg's 25-iteration solve landed on another equilibrium, which lost stability at -0.00082",
         docs="docs/graded.md#not-done-issue-7-done-when"),
     Row("softer centre: axisymmetric bowl for all p", "cone, cone, lens, bowl", "axisymmetric for every p, cone -> lens -> bowl",
         verdict="documented", docs="docs/graded.md#softer-centre-n0--1e-3-nr--1e-2-tr--001"),

@@ -5,9 +5,10 @@ From a finished default run (``ngsgel run graded-plate-shell --out DIR``) the st
 second snap (``DIR/checkpoint_leg2.npz``) is relaxed again at ``mu`` + 1e-3 as the scene does,
 then followed to ``mu = -0.00164`` in one natural step and in steps of 1e-4, and on in 1e-4
 steps to ``--to``. Printed: each path's points (``mu``, Newton iterations, negative count, rim
-purity) and the largest difference of the two states at -0.00164.
+purity), the largest difference of the two states at -0.00164 and, with ``--to 0``, of the
+small steps' end and the run's end state (``DIR/state_end.npz``).
 
-    python scripts/plate_branch_check.py DIR [--to -0.0006]
+    python scripts/plate_branch_check.py DIR [--to -0.0006 | --to 0]
 """
 
 from __future__ import annotations
@@ -58,7 +59,11 @@ def main() -> None:
         difference = np.max(np.abs(one.points[-1].state - small.points[-1].state))
         print(f"at -0.00164: largest difference {difference:.3g}, largest |state| "
               f"{np.max(np.abs(small.points[-1].state)):.3g}")
-        follow(1e-4, args.to, "steps of 1e-4 on")
+        on = follow(1e-4, args.to, "steps of 1e-4 on")
+        if args.to == 0.0 and on.points[-1].parameter == 0.0:
+            end = np.load(f"{args.run}/state_end.npz")
+            print(f"at mu = 0 against the run's end state: largest difference "
+                  f"{np.max(np.abs(on.points[-1].state - end['state'])):.3g}")
 
 
 if __name__ == "__main__":

@@ -171,7 +171,8 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
     0.1 t, the next follows that branch to ``mu = 0`` locating (not switching at) every later
     change of the negative count, with its critical mode's wave number (column ``leg``).
     ``through_snaps`` (with ``switch_all`` False): the legs after the first follow ``mu`` in
-    natural steps (``step / 5`` growing to ``step``; a solve gives up after ``STALL_WINDOW`` iterations
+    natural steps (``step / 5`` growing to ``step``, a leg after a snap from ``snap_overshoot``; a
+    solve gives up after ``STALL_WINDOW`` iterations
     that do not halve its residual, a step grows after <= ``EASY_ITERATIONS``) and also end where the followed branch loses
     stability or the steps stall (below ``step / MIN_STEP_DIVISOR``: a fold); the disk then snaps at ``mu`` =
     critical (or last) + ``snap_overshoot`` (at most 0) (``ngsgel.relaxation.settle_after``: pushed 0.1 t
@@ -240,6 +241,12 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
             # past the first switch a snapping run steps mu itself: the arclength corrector failed to
             # locate the saddle's loss of stability at h = 0.15 (docs/graded.md)
             natural = through_snaps and leg > 0
+            # A leg after a snap starts on a soft branch: started at step / 5 (the try to mu = 0
+            # failed, the halved one converged in 25 Newton iterations) the last leg landed on
+            # another equilibrium, which lost stability at mu = -0.00082 and snapped to a state of
+            # purity 0.631; from the overshoot its steps follow the branch, as steps of 1e-4 do
+            # (docs/benchmarks.md, "Which of the two end states is the branch's")
+            first_step = snap_overshoot if leg > 1 else step / 5
             newton_options = {} if maxit is None else {"maxit": maxit}
             leg_options = {"newton_options": newton_options}
             if natural:
@@ -247,7 +254,7 @@ def run(out: str, *, p: float = 10.0, n0: float = GRADED_N0, nR: float = GRADED_
                                "newton_options": {**newton_options, "stall_window": STALL_WINDOW}}
             try:
                 path = follow_path(shell, shell.mu, method="natural" if natural else "arclength",
-                                   step=step / 5 if natural else step, max_step=step,
+                                   step=first_step if natural else step, max_step=step,
                                    min_step=step / MIN_STEP_DIVISOR if natural else None, target=0.0, stability=stability,
                                    qoi=qoi, history=history, max_steps=max_steps - len(points), stop=stop,
                                    vtk=vtk, progress=progress, checkpoint_file=latest,
