@@ -40,9 +40,9 @@ def main() -> None:
         start, mu_start = shell.save_state(), shell.mu.Get()
         print(f"relaxed at mu {mu_start:.6g}: {relaxed.steps} pseudo-time steps, purity {rim.values()['rim_purity']:.4f}")
 
-        def follow(step: float, target: float, label: str):
-            shell.restore_state(start)
-            shell.mu.Set(mu_start)
+        def follow(step: float, target: float, label: str, *, state=start, mu=mu_start):
+            shell.restore_state(state)
+            shell.mu.Set(mu)
             try:
                 path = follow_path(shell, shell.mu, method="natural", step=step, max_step=step, min_step=step / 1000,
                                    target=target, stability=StabilityOptions(tol=1e-4), keep_states=True,
@@ -59,7 +59,7 @@ def main() -> None:
         difference = np.max(np.abs(one.points[-1].state - small.points[-1].state))
         print(f"at -0.00164: largest difference {difference:.3g}, largest |state| "
               f"{np.max(np.abs(small.points[-1].state)):.3g}")
-        on = follow(1e-4, args.to, "steps of 1e-4 on")
+        on = follow(1e-4, args.to, "steps of 1e-4 on", state=small.points[-1].state, mu=small.points[-1].parameter)
         if args.to == 0.0 and on.points[-1].parameter == 0.0:
             end = np.load(f"{args.run}/state_end.npz")
             print(f"at mu = 0 against the run's end state: largest difference "
