@@ -39,7 +39,7 @@ from .newton import LinearSolver, NewtonError, NewtonResult, Work, newton, total
 from .output import report_progress, writing_process
 from .stability import (Spectrum, free_matrix, load_projection, load_rate, mass_matrix,
                         negative_count, spectrum, state_rate)
-from .stepping import RampError, ramp
+from .stepping import PREDICTORS, RampError, ramp
 
 __all__ = ["StabilityOptions", "Stabilization", "PathPoint", "PathStep", "Event", "Checkpoint", "Resumption", "PathResult",
            "ContinuationError", "BorderedCorrector", "follow_path"]
@@ -578,6 +578,7 @@ class _Driver:
         if self.solver is not None:
             t = clock()
             self.solver.factor(matrix)
+            self.solver.factorised_at = (self.parameter.Get(), self.problem.save_state())
             work.factorisation, work.factorisations = clock() - t, 1
             ldlt = self.solver.ldlt  # None where pivots were perturbed: SuperLU counts instead
         K = None if self._distributed else free_matrix(matrix, self.problem.free_mask)
@@ -877,7 +878,7 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
                 history=None, vtk=None, vtk_every: int = 1, progress: Callable[[str], None] | None = None,
                 restart: Checkpoint | None = None, keep_states: bool = False, grow: float = 1.5,
                 easy_iterations: int = 4, hard_iterations: int = 8, max_correction: float | None = None,
-                newton_options: dict | None = None, checkpoint_file: str | Path | None = None,
+                predictor: str = "secant", newton_options: dict | None = None, checkpoint_file: str | Path | None = None,
                 resume: Checkpoint | None = None) -> PathResult:
     """Follow the equilibrium path of ``problem`` in ``parameter`` from its current state
     (equilibrated first) or from ``restart``, or go on with the path of ``resume``.
@@ -897,7 +898,11 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     ``max_correction`` (natural runs): refuse a step that converged farther from its predictor
     than this many predicted increments (``ngsgel.stepping.ramp``): a jump onto another branch
     that neither end's stability shows; 2 separates them on the snapping arch.
-    ``newton_options`` go to every Newton solve; unless it sets ``atol``, solves get the floor
+    ``predictor`` (natural runs): ``ramp``'s guess of each step after the first, ``"secant"`` or
+    ``"quadratic"`` (the parabola with the path's tangent at the last state, from the stability
+    check's factorisation: with a backend that gives the inertia, PARDISO).
+    ``newton_options`` go to every Newton solve (a natural run's location of a change of the
+    negative count without ``stall_trend``); unless it sets ``atol``, solves get the floor
     ``1e-10 * step * |dR/dlambda|`` (a solve that starts next to its solution cannot reduce a
     residual at round-off level by a relative factor).
     ``checkpoint_file`` (``.npz``): the ``Checkpoint`` of the path so far, written at its first
@@ -914,6 +919,8 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     """
     if method not in ("natural", "arclength"):
         raise ValueError(f"method must be 'natural' or 'arclength', got {method!r}")
+    if predictor not in PREDICTORS:
+        raise ValueError(f"predictor must be one of {PREDICTORS}, got {predictor!r}")
     if not step > 0:
         raise ValueError(f"step must be positive, got {step!r}")
     if method == "natural" and target is None:
@@ -988,7 +995,7 @@ def follow_path(problem, parameter: ngs.Parameter, *, method: Method = "arclengt
     if method == "natural":
         return _natural(driver, current, step=step, target=target, min_step=min_step, max_step=max_step,
                         stabilization=stabilization, grow=grow, easy=easy_iterations, max_correction=max_correction,
-                        newton_options=newton_options)
+                        predictor=predictor, newton_options=newton_options)
     return _arclength(driver, current, previous, step=step, target=target, min_step=min_step, max_step=max_step,
                       direction=direction, scale=start.scale if start else None, grow=grow,
                       easy=easy_iterations, hard=hard_iterations, newton_options=newton_options)
@@ -1010,17 +1017,20 @@ def _corrector(problem, parameter: ngs.Parameter, newton_options: dict) -> Borde
 
 
 def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, max_step, stabilization, grow, easy,
-             max_correction, newton_options) -> PathResult:
+             max_correction, predictor, newton_options) -> PathResult:
     problem, parameter = driver.problem, driver.parameter
     system = _Damped(problem, parameter, stabilization) if stabilization is not None else problem
     state = {"current": current}
+    # between two converged states an equilibrium exists, and next to the critical one Newton
+    # converges linearly: a location's solve is not given up on a slow trend
+    location_options = {k: v for k, v in newton_options.items() if k != "stall_trend"}
 
     def segment_from(a: _Converged, b: _Converged) -> Callable[[float], None]:
         def solve_at(s: float) -> None:
             driver._goto(a)
             problem.restore_state(a.state + s * (b.state - a.state))
             parameter.Set(a.parameter + s * (b.parameter - a.parameter))
-            driver.add_work(problem.solve(**newton_options).records)
+            driver.add_work(problem.solve(**location_options).records)
         return solve_at
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
@@ -1077,7 +1087,7 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
             result = ramp(system, parameter, target, step=h, min_step=min_step, max_step=max_step, grow=grow,
                           easy_iterations=easy, on_step=on_step, newton_options=step_options,
                           tangent_start=stabilization is None,  # damping's tangent needs a step
-                          max_correction=max_correction)
+                          max_correction=max_correction, predictor=predictor)
         except RampError as err:
             with_ramp_work(taken, err.result)
             driver.stop_reason, driver.message = "min_step", str(err)

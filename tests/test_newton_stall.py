@@ -48,3 +48,36 @@ def test_bad_stall_window_is_named(window):
     prob, _, _ = arch()
     with pytest.raises(ValueError, match="stall_window"):
         prob.solve(stall_window=window)
+
+
+def test_a_stalling_trend_gives_up_before_the_window_with_the_state_restored():
+    prob, load, _ = _arch_on_the_near_branch()
+    before = prob.save_state()
+    load.Set(1.1 * ARCH_LIMIT)
+    with pytest.raises(NewtonError, match="stalled: the last 3 iterations") as stalled:
+        prob.solve(stall_window=10, stall_trend=3)
+    result = stalled.value.result
+    assert result.iterations < 10
+    residuals = result.residuals
+    # what the trend tests: three iterations that, kept up, would not halve the residual in ten
+    assert residuals[-1] > 0.5 ** 0.3 * residuals[-4]
+    assert all(r > 0.5 ** 0.3 * s for r, s in zip(residuals[3:-1], residuals[:-4]))  # not before the last
+    assert np.array_equal(prob.save_state(), before)
+
+
+def test_converging_steps_are_the_same_with_a_stall_trend():
+    runs = []
+    for options in ({"stall_window": 10}, {"stall_window": 10, "stall_trend": 3}):
+        prob, load, _ = arch()
+        result = ramp(prob, load, 0.95 * ARCH_LIMIT, step=0.01, newton_options=options)
+        runs.append((prob.save_state(), [n.iterations for n in result.newton]))
+    assert runs[0][1] == runs[1][1]
+    assert np.array_equal(runs[0][0], runs[1][0])
+
+
+@pytest.mark.parametrize("options", [{"stall_trend": 3}, {"stall_window": 10, "stall_trend": 0},
+                                     {"stall_window": 10, "stall_trend": 1.5}])
+def test_bad_stall_trend_is_named(options):
+    prob, _, _ = arch()
+    with pytest.raises(ValueError, match="stall_trend"):
+        prob.solve(**options)
