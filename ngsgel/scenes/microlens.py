@@ -468,12 +468,13 @@ def follow_shell(cap: ShellCap, parameter: ngs.Parameter, target: float, *, step
     """Natural-parameter path of ``parameter`` (the depth or ``mu``) to ``target`` with exact
     stability (the negative count at every state, eigenpairs only where it changes), location of
     every change to ``2e-3 H`` (depth) or ``step / 50`` (mu) and a switch onto the bifurcated
-    branch; steps that converge far from their predictor (``JUMP_RATIO``)
-    or whose Newton solve does not halve its residual in ``STALL_WINDOW`` iterations (or, at the
-    rate of its last ``STALL_TREND``, would not) are cut as failed. A path that cannot go on (a limit point under displacement control)
-    ends with ``stop_reason`` "stalled: ..." instead of raising; one left on an unstable branch (the
-    location or the branch switch failed) stops there ("criterion"). ``checkpoint_file``/``restart``/
-    ``resume``: see ``follow_path``."""
+    branch; each step guessed by the parabola through the last two states (``ramp``'s quadratic
+    predictor); steps that converge far from their predictor (``JUMP_RATIO``) or whose Newton solve
+    does not halve its residual in ``STALL_WINDOW`` iterations (or, at the rate of its last
+    ``STALL_TREND``, would not) are cut as failed. A path that cannot go on (a limit point under
+    displacement control) ends with ``stop_reason`` "stalled: ..." instead of raising; one left on
+    an unstable branch (the location or the branch switch failed) stops there ("criterion").
+    ``checkpoint_file``/``restart``/``resume``: see ``follow_path``."""
     case = cap.case
     tol = 2e-3 * case.H if parameter is cap.depth else step / 50
     try:
