@@ -81,3 +81,30 @@ def test_bad_stall_trend_is_named(options):
     prob, _, _ = arch()
     with pytest.raises(ValueError, match="stall_trend"):
         prob.solve(**options)
+
+
+def test_quadratic_backtracking_reaches_the_same_states_and_names_bad_input():
+    runs = []
+    for backtrack in ("halving", "quadratic"):
+        prob, load, _ = arch()
+        ramp(prob, load, 0.95 * ARCH_LIMIT, step=0.01, newton_options={"backtrack": backtrack})
+        runs.append(prob.save_state())
+    assert np.max(np.abs(runs[0] - runs[1])) < 1e-10
+    with pytest.raises(ValueError, match="backtrack"):
+        prob.solve(backtrack="cubic")
+
+
+def test_quadratic_backtracking_keeps_armijo_and_gives_up_past_the_limit_load_in_fewer_residuals():
+    evaluations = {}
+    for backtrack in ("halving", "quadratic"):
+        prob, load, _ = _arch_on_the_near_branch()
+        before = prob.save_state()
+        load.Set(1.1 * ARCH_LIMIT)
+        with pytest.raises(NewtonError, match="stalled") as stalled:
+            prob.solve(stall_window=5, backtrack=backtrack)
+        result = stalled.value.result
+        residuals = result.residuals
+        assert all(b < a for a, b in zip(residuals, residuals[1:]))  # each kept point lowers it (Armijo)
+        evaluations[backtrack] = result.work.residual_evaluations
+        assert np.array_equal(prob.save_state(), before)
+    assert evaluations["quadratic"] < evaluations["halving"], evaluations
