@@ -193,29 +193,41 @@ class LoadRate:
 
 
 def load_rate(problem, parameter: ngs.Parameter, *, x: ngs.BaseVector | None = None,
-              K: ngs.BaseMatrix | None = None, relative_step: float = 1e-4) -> LoadRate:
+              K: ngs.BaseMatrix | None = None, relative_step: float = 1e-4,
+              move_prescribed: bool = False) -> LoadRate:
     """Total derivative of the free residual with respect to the load parameter along states whose
     constrained dofs follow their prescribed values (central difference, see the module notes).
-    ``K``: the tangent at ``x`` if already assembled."""
+    ``K``: the tangent at ``x`` if already assembled. ``move_prescribed``: the residuals are taken
+    with the constrained dofs at their values at ``lambda +- h``, so the difference carries their
+    motion itself and no tangent is needed (exact to ``O(h^2)``; ``K`` is then not used)."""
     x = problem.state if x is None else x
     lam = parameter.Get()
     h = relative_step * (1.0 + abs(lam))
+    free = problem.free_mask
     r_plus, r_minus = x.CreateVector(), x.CreateVector()
     g_plus, g_minus = x.CreateVector(), x.CreateVector()
+    moved = x.CreateVector()
+
+    def residual_at(out, g) -> None:
+        problem.prescribed(g)
+        if move_prescribed:
+            moved.data = x
+            moved.FV().NumPy()[~free] = g.FV().NumPy()[~free]
+            problem.residual(moved, out)
+        else:
+            problem.residual(x, out)
+
     try:
         parameter.Set(lam + h)
-        problem.residual(x, r_plus)
-        problem.prescribed(g_plus)
+        residual_at(r_plus, g_plus)
         parameter.Set(lam - h)
-        problem.residual(x, r_minus)
-        problem.prescribed(g_minus)
+        residual_at(r_minus, g_minus)
     finally:
         parameter.Set(lam)
-    free = problem.free_mask
     dg = (g_plus.FV().NumPy() - g_minus.FV().NumPy()) / (2 * h)
     dg[free] = 0.0
     dR = (r_plus.FV().NumPy() - r_minus.FV().NumPy()) / (2 * h)
-    if np.any(dg):
+    if np.any(dg) and not move_prescribed:
         # the free rows feel the moving constrained dofs through the coupling block of the tangent
         move = x.CreateVector()
         move.FV().NumPy()[:] = dg

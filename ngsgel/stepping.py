@@ -13,6 +13,7 @@ import ngsolve as ngs
 from .newton import FreeDofReductions, LinearSolver, NewtonError, NewtonResult, Work, WorkCounts, total_work
 from .output import report_progress
 from .parallel import DistributedSolver
+from .stability import load_rate
 from .threads import using_threads
 
 __all__ = ["ramp", "PREDICTORS", "tangent_predictor", "RampResult", "RampStep", "ValueReached", "RampError", "JumpError"]
@@ -370,42 +371,31 @@ def _quadratic_guess(problem, parameter: ngs.Parameter, current: tuple[float, np
     """The parabola through ``previous`` and ``current`` (parameter, state) whose slope at
     ``current`` is the path's tangent ``dx/dlambda = -K^-1 dR/dlambda``, evaluated at ``new``; None
     where the problem's solver does not hold the factorised tangent at ``current``
-    (``LinearSolver.factorisation_at``) or the rate is not finite. ``dR/dlambda`` is the free
-    residual's derivative along the prescribed motion, by a central difference (exact to round-off
-    for loads and prescribed values affine in the parameter). Leaves the problem at ``current``."""
+    (``LinearSolver.factorisation_at``) or the rate is not finite. ``dR/dlambda``: ``load_rate``
+    along the prescribed motion (two residuals, no tangent). Leaves the problem at ``current``."""
     solver = getattr(problem, "_solver", None)
     value, state = current
     inverse = solver.factorisation_at(value, state) if isinstance(solver, LinearSolver) else None
     if inverse is None:
         return None
-    free = problem.free_mask
-    x = problem.state
-    h = 1e-6 * (1.0 + abs(value))
-    residuals, prescribed = [], []
-    for shifted in (value + h, value - h):
-        parameter.Set(shifted)
-        g, r = x.CreateVector(), x.CreateVector()
-        problem.prescribed(g)
-        moved = state.copy()
-        moved[~free] = g.FV().NumPy()[~free]
-        problem.restore_state(moved)
-        _timed(work, "residual", lambda: problem.residual(x, r))
-        work.residual_evaluations += 1
-        residuals.append(r.FV().NumPy().copy())
-        prescribed.append(moved)
     parameter.Set(value)
     problem.restore_state(state)
-    rate = (prescribed[0] - prescribed[1]) / (2 * h)
-    load_rate = x.CreateVector()
-    load_rate.FV().NumPy()[:] = np.where(free, (residuals[0] - residuals[1]) / (2 * h), 0.0)
+    x = problem.state
+    rate_of_load = _timed(work, "residual", lambda: load_rate(problem, parameter, relative_step=1e-6,
+                                                              move_prescribed=True))
+    work.residual_evaluations += 2
+    load = x.CreateVector()
+    load.FV().NumPy()[:] = 0.0
+    load.FV().NumPy()[problem.free_mask] = rate_of_load.residual
     response = x.CreateVector()
 
     def solve():
-        response.data = inverse * load_rate
+        response.data = inverse * load
 
     _timed(work, "solve", solve)
     work.solves += 1
-    rate[free] = -response.FV().NumPy()[free]
+    rate = rate_of_load.prescribed.copy()
+    rate[problem.free_mask] = -response.FV().NumPy()[problem.free_mask]
     if not np.all(np.isfinite(rate)):
         return None
     back = previous[0] - value
