@@ -347,9 +347,13 @@ class BorderedCorrector:
         return r.FV().NumPy()[self.free].copy()
 
     def solve(self, guess: tuple[np.ndarray, float], origin: tuple[np.ndarray, float],
-              normal: tuple[np.ndarray, float], s: float) -> NewtonResult:
+              normal: tuple[np.ndarray, float], s: float, *, max_growth: float | None = None) -> NewtonResult:
         """Converge from ``guess`` (full state, lambda); ``origin`` and ``normal`` as free-dof
-        vectors. On failure the problem's state and parameter are restored, NewtonError raised."""
+        vectors. ``max_growth``: fail as soon as the residual exceeds this many times the guess's
+        (an iterate that has left the guess's neighbourhood). On failure the problem's state and
+        parameter are restored, NewtonError raised."""
+        if max_growth is not None and not max_growth > 1:
+            raise ValueError(f"max_growth must be > 1 or None, got {max_growth!r}")
         problem, free = self.problem, self.free
         saved, saved_lam = problem.save_state(), self.parameter.Get()
         cx, cl = normal
@@ -404,6 +408,9 @@ class BorderedCorrector:
             r_max = max(r_max, rnorm)
             result.residuals.append(rnorm)
             result.iterations = it + 1
+            if max_growth is not None and rnorm > max_growth * result.residuals[0]:
+                raise fail(f"the residual grew {rnorm / result.residuals[0]:.3g}-fold at iteration {it + 1} "
+                           f"(to {rnorm:.3e}): the iterates have left the guess")
             if self.monotone and rnorm >= previous and rnorm > max(self.atol, self.rtol * r_max):
                 raise fail(f"the residual rose at iteration {it + 1} ({previous:.3e} to {rnorm:.3e}): "
                            "the guess lies outside Newton's basin")
@@ -762,7 +769,6 @@ class _Driver:
                                     f"fewer than the {a.spectrum.negative} and {b.spectrum.negative} at the ends of "
                                     f"the step: more than one eigenvalue changes sign in it")
             new = (s, point.spectrum.crossing(index)[0], point.parameter)
-            spread = max(lo[2], hi[2], new[2]) - min(lo[2], hi[2], new[2])
             # the side of the bracket is the sign of the tracked eigenvalue (number ``index``)
             if (point.spectrum.negative > index) == (a.spectrum.negative > index):
                 lo, hi = new, (hi if kept != "hi" else (hi[0], hi[1] / 2, hi[2]))
@@ -770,8 +776,10 @@ class _Driver:
             else:
                 hi, lo = new, (lo if kept != "lo" else (lo[0], lo[1] / 2, lo[2]))
                 kept = "lo"
-            if spread <= self.stability.tol:
-                return point, spread
+            # the critical load lies in the bracket, of which ``point`` is one end
+            width = abs(hi[2] - lo[2])
+            if width <= self.stability.tol:
+                return point, width
         raise LocationError(f"critical point between parameters {a.parameter:g} and {b.parameter:g} not "
                             f"located to {self.stability.tol:g} in {self.stability.max_locate_iterations} iterations")
 
@@ -781,7 +789,7 @@ class _Driver:
         branch re-converged from the stable side ``a``).
 
         Where the bordered corrector (the state at the mode amplitude ``amplitude * length``)
-        fails, the same guess is solved at a fixed load past the critical one (by the larger of
+        fails (also once its residual grows ``SWITCH_MAX_GROWTH``-fold), the same guess is solved at a fixed load past the critical one (by the larger of
         ``10 tol`` and half the way from ``a`` to the critical point): a
         bifurcated branch whose amplitude grows like ``sqrt(load)`` with a small factor puts
         that amplitude far beyond the corrector's reach (the coarse graded disk: ``mu`` 0.28
@@ -1009,6 +1017,13 @@ def _corrector_work(result: NewtonResult, started: float, kind: str) -> Work:
                 residual_norm=result.residuals[-1] if result.residuals else math.nan)
 
 
+# A branch-switch guess lies next to the new branch (its residual is that of the mode's amplitude);
+# a corrector whose residual grows far beyond it has left for elsewhere and, unstopped, wanders
+# through its iterations (the microlens half cap at d/H 0.733: from 2.2e-9 to 4e-7 at the first
+# iteration, 1e-6 after 20, 46 s) before the switch tries the solve past the critical load.
+SWITCH_MAX_GROWTH = 100.0
+
+
 def _corrector(problem, parameter: ngs.Parameter, newton_options: dict) -> BorderedCorrector:
     """The bordered corrector with the run's Newton tolerances (its absolute floor above all: a
     branch-switch guess next to the critical state starts with a residual near round-off)."""
@@ -1037,7 +1052,7 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
         corrector = _corrector(problem, parameter, newton_options)
         free = problem.free_mask
         return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
-            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s))
+            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s, max_growth=SWITCH_MAX_GROWTH))
 
     def on_step(lam: float, newton_result: NewtonResult) -> bool:
         driver.steps += 1
@@ -1135,7 +1150,7 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
         return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
-            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s))
+            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s, max_growth=SWITCH_MAX_GROWTH))
 
     ds = step
     while True:

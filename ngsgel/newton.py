@@ -212,14 +212,19 @@ class LinearSolver:
 
 
 REFERENCES = ("max", "start")
+# Relative energy change below which the energy does not judge a step. The gel energy is a sum of
+# cancelling terms, but its rounding is far below this: the microlens shell's (-1.55e-3) followed
+# its quadratic model along a Newton direction to 5e-18 (3e-15 of it).
+ENERGY_ROUND_OFF = 1e-12
 BACKTRACKS = ("halving", "quadratic")
+MERITS = ("residual", "energy")
 
 
 def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11, atol: float = 0.0,
            xtol: float = 1e-13, reference: str | float = "max", maxit: int = 30, min_step: float = 2.0**-12,
            raise_on_failure: bool = True, reuse_factorisation: bool = False, chord_start: bool = False,
            chord_rate: float = 0.25, chord_pacing: bool = False, stall_window: int | None = None,
-           stall_trend: int | None = None, backtrack: str = "halving") -> NewtonResult:
+           stall_trend: int | None = None, backtrack: str = "halving", merit: str = "residual") -> NewtonResult:
     """Solve ``residual(x) = 0`` on the free dofs with ``x = prescribed`` on the constrained ones.
 
     Converged, once the prescribed values are met, when one of these holds (``criterion`` of the
@@ -280,6 +285,18 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     which reaches the step Armijo accepts in fewer residuals where the full step overshoots by far
     (next to a fold or a singular tangent, where halving takes five or six residuals an iteration).
 
+    ``merit``: what the line search asks of a step once the prescribed values are met:
+    ``"residual"`` (the Armijo decrease of the free residual norm above), or ``"energy"`` (for a
+    system with ``energy(x)``): where the factorisation shows the tangent positive definite (its
+    inertia, PARDISO's), a step the residual refuses is also kept if it lowers the energy by the
+    Armijo fraction of ``r . dx`` (the Newton direction descends there), while that change lies above
+    the energy's rounding (``ENERGY_ROUND_OFF``). In a flat, curved valley of a stable state the full
+    Newton step often lowers the energy as its quadratic model says while the residual norm grows,
+    and halving it to please the residual makes the convergence linear (the microlens shell after a
+    snap: 19 iterations, 8 cuts, 17 s with the residual; 13, no cut, 11 s with the energy, the same
+    state). At a saddle, or without an inertia, the solve is the residual one. The stall tests
+    follow the lowest residual so far (a step kept by its energy may raise the residual).
+
     ``records`` of the result hold the time and operation counts of the start and of every
     iteration and chord step (``Work``); ``work``, ``factorisations`` and ``solves`` sum them.
     """
@@ -287,6 +304,10 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         raise ValueError(f"stall_window must be an integer >= 1 or None, got {stall_window!r}")
     if backtrack not in BACKTRACKS:
         raise ValueError(f"backtrack must be one of {BACKTRACKS}, got {backtrack!r}")
+    if merit not in MERITS:
+        raise ValueError(f"merit must be one of {MERITS}, got {merit!r}")
+    if merit == "energy" and not callable(getattr(system, "energy", None)):
+        raise ValueError("merit='energy' needs a system with an energy(x) method")
     if stall_trend is not None and not (isinstance(stall_trend, int) and stall_trend >= 1 and stall_window is not None):
         raise ValueError(f"stall_trend must be an integer >= 1 (with a stall_window) or None, got {stall_trend!r}")
     for name, value in (("rtol", rtol), ("atol", atol), ("xtol", xtol)):
@@ -375,6 +396,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
     close(work, started, rnorm)
     r_max = r_start = rnorm
     result.residuals.append(rnorm)
+    energy_here = None  # the energy at x, where known (merit "energy")
     chord_ok = (reuse_factorisation or chord_start) and solver.current is not None
     # free residual norm after every full iteration since the prescribed values are met
     after_iteration = [] if reductions.any(mismatch) else [rnorm]
@@ -398,6 +420,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
                 break
             rate = rn_trial / rnorm if rnorm > 0 else 0.0
             x.data = trial
+            energy_here = None
             r.data = r_trial
             rnorm = rn_trial
             result.residuals.append(rnorm)
@@ -428,13 +451,29 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         dx.data -= r_trial
         step_max = reductions.max_abs(dx.FV().NumPy())
         alpha = 1.0
+        slope = math.nan
+        # the energy judges only a descent direction to a minimum: the tangent positive definite
+        # (an inertia the factorisation gives); a saddle (a location past a critical point) or a
+        # backend without inertia keeps the residual
+        inertia = solver.inertia if merit == "energy" and met else None
+        if inertia is not None and inertia[1] == 0 and inertia[2] == 0:
+            slope = reductions.sum(float(r.FV().NumPy()[free] @ dx.FV().NumPy()[free]))
         while True:
             trial.data = x + alpha * dx
             attempt = Work("trial")
             rn_trial = evaluate(trial, r_trial, attempt)
-            if math.isfinite(rn_trial) and (not met or alpha * step_max <= xtol
-                                            or rn_trial <= (1 - 1e-4 * alpha) * rnorm
-                                            or rn_trial <= tolerance()):
+            accepted = math.isfinite(rn_trial) and (not met or alpha * step_max <= xtol
+                                                    or rn_trial <= (1 - 1e-4 * alpha) * rnorm
+                                                    or rn_trial <= tolerance())
+            if not accepted and math.isfinite(rn_trial) and slope < 0:
+                t = clock()
+                if energy_here is None:
+                    energy_here = system.energy(x)
+                # Armijo on the energy, where its change is above its rounding
+                if -alpha * slope > ENERGY_ROUND_OFF * abs(energy_here):
+                    accepted = system.energy(trial) <= energy_here + 1e-4 * alpha * slope
+                attempt.residual += clock() - t
+            if accepted:
                 work.residual, work.admissibility = attempt.residual, attempt.admissibility
                 work.residual_evaluations += attempt.residual_evaluations
                 break
@@ -454,6 +493,7 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
                 return fail(f"line search failed at iteration {it + 1} (residual {rnorm:.3e}): "
                             "no admissible step decreases the residual")
         x.data = trial
+        energy_here = None
         mismatch *= 1.0 - alpha
         r.data = r_trial
         rnorm = rn_trial
@@ -464,16 +504,18 @@ def newton(system: NonlinearSystem, solver: LinearSolver, *, rtol: float = 1e-11
         solver.iteration_seconds = work.total - work.line_search
         if alpha == 1.0 and step_max <= xtol and not reductions.any(mismatch):
             return converge("increment")
+        # an energy-accepted step may raise the residual: progress is then the lowest one so far
+        progress = min(rnorm, after_iteration[-1]) if merit == "energy" and after_iteration else rnorm
         if not reductions.any(mismatch):
-            after_iteration.append(rnorm)
+            after_iteration.append(progress)
         if (stall_window is not None and len(after_iteration) > stall_window
-                and rnorm > 0.5 * after_iteration[-1 - stall_window]):
+                and progress > 0.5 * after_iteration[-1 - stall_window]):
             return fail(f"stalled: {stall_window} iterations did not halve the residual (now {rnorm:.3e}, "
                         f"iteration {it + 1})")
         if (stall_trend is not None and len(after_iteration) > stall_trend
-                and rnorm > 0.5 ** (stall_trend / stall_window) * after_iteration[-1 - stall_trend]):
+                and progress > 0.5 ** (stall_trend / stall_window) * after_iteration[-1 - stall_trend]):
             return fail(f"stalled: the last {stall_trend} iterations cut the residual by "
-                        f"{1 - rnorm / after_iteration[-1 - stall_trend]:.2%} (now {rnorm:.3e}, iteration {it + 1}): "
+                        f"{1 - progress / after_iteration[-1 - stall_trend]:.2%} (now {rnorm:.3e}, iteration {it + 1}): "
                         f"at that rate {stall_window} would not halve it")
     described = {"max": "the largest residual", "start": "the start residual"}.get(reference, "the reference")
     return fail(f"no convergence in {maxit} iterations (residual {rnorm:.3e}, target {tolerance():.3e}: "

@@ -136,14 +136,8 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
         return K, solver.factor(K)
 
     def current_spectrum(**options) -> Spectrum:
-        """``spectrum`` of the current tangent (count 1); with a backend that gives the inertia
-        (PARDISO) the solver's one factorisation serves the count and the eigen solve."""
-        K = current_tangent()
-        ldlt = None
-        if solver.inverse == "pardiso":
-            solver.factor(K)
-            ldlt = solver.ldlt
-        return spectrum(problem, count=1, K=free_matrix(K, free), M=free_mass_matrix(), factorisation=ldlt, **options)
+        """``_lowest_spectrum`` of the current tangent."""
+        return _lowest_spectrum(problem, solver, current_tangent(), M=free_mass_matrix(), **options)
 
     free_mass = None
 
@@ -269,6 +263,17 @@ def _settle(problem, *, parameter, tau, rtol, atol, xtol, max_steps, grow, progr
             tau = min(tau, tau_cap)
 
 
+def _lowest_spectrum(problem, solver: LinearSolver, K: ngs.BaseMatrix, *, M=None, **options) -> Spectrum:
+    """``spectrum`` (count 1) of the tangent ``K``; with a backend that gives the inertia
+    (PARDISO) ``solver``'s one factorisation serves the count and the eigen solve (SuperLU would
+    factorise twice: 8 s on the 50k-unknown microlens shell)."""
+    ldlt = None
+    if solver.inverse == "pardiso":
+        solver.factor(K)
+        ldlt = solver.ldlt
+    return spectrum(problem, count=1, K=free_matrix(K, problem.free_mask), M=M, factorisation=ldlt, **options)
+
+
 def _push_and_settle(problem, parameter: ngs.Parameter, state: np.ndarray, mode: np.ndarray | None, load: float, *,
                      amplitude: float, **settle_options) -> SettleResult:
     """``state`` at the load ``load``, pushed by root-mean-square ``amplitude`` along ``mode``
@@ -335,7 +340,9 @@ def settle_after(problem, parameter: ngs.Parameter, path, *, overshoot: float, a
     if unstable:  # an unlocated loss, or one exactly at the target: leave along the lowest mode
         problem.restore_state(state)
         parameter.Set(path.checkpoint.parameter)
-        lowest = spectrum(problem, count=1, past_negative=True)
+        solver = LinearSolver(problem.space.FreeDofs(), inverse=problem.inverse)
+        with ngs.TaskManager():
+            lowest = _lowest_spectrum(problem, solver, problem.tangent(problem.state), past_negative=True)
         mode = np.zeros_like(state)
         mode[problem.free_mask] = lowest.modes[:, 0]  # unit root-mean-square amplitude
     return _push_and_settle(problem, parameter, state, mode, load, amplitude=amplitude, **settle_options)

@@ -402,6 +402,9 @@ class GelShell(BuiltOnDemand):
         skin = self._kinematics(self._scratch.components[0], list(self._scratch.components[2:]))
         bad = sum(ngs.IfPos(m, 0.0, 1.0) for m in skin["margins"])
         self._indicator = bad.Compile()  # evaluated at every line-search trial point
+        state = self._state_kinematics()
+        self._volume = state["volume"].Compile()  # a path's quantity at every state
+        self._reference_volume = ngs.Integrate(state["reference_volume"], mesh, ngs.BND, order=2 * k + 2)
         self._point_dofs = []
         for vertices, force, scale in self._point_loads:
             self._point_dofs.append((self._vertex_dofs(int(vertices[0])), force, scale))
@@ -680,10 +683,8 @@ class GelShell(BuiltOnDemand):
     def volume_ratio(self) -> float:
         """Current gel volume over that of the reference (the swollen, unloaded shell), both
         integrated through the thickness with the layer quadrature and the shifter ``det A``."""
-        kin = self._state_kinematics()
-        order = 2 * self.order + 2
-        current = ngs.Integrate(kin["volume"], self.mesh, ngs.BND, order=order)
-        return current / ngs.Integrate(kin["reference_volume"], self.mesh, ngs.BND, order=order)
+        self.form
+        return ngs.Integrate(self._volume, self.mesh, ngs.BND, order=2 * self.order + 2) / self._reference_volume
 
     def layer_cauchy(self, layer: int) -> ngs.CoefficientFunction:
         """Cauchy stress (3x3) at through-thickness point ``layer`` (0 = most negative zeta)."""

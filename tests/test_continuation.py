@@ -276,7 +276,7 @@ def test_a_branch_switch_whose_corrector_fails_is_solved_just_past_the_critical_
     from ngsgel import continuation
     from ngsgel.newton import NewtonError, NewtonResult
 
-    def failing_solve(self, guess, origin, normal, s):
+    def failing_solve(self, guess, origin, normal, s, **options):
         raise NewtonError("no convergence in 20 iterations (residual 6.3e-03)", NewtonResult(False, 20))
 
     monkeypatch.setattr(continuation.BorderedCorrector, "solve", failing_solve)
@@ -460,3 +460,45 @@ def test_every_step_reports_its_work_and_its_stability_check_apart(method):
                 assert step.part("corrector").factorisations == point.iterations
             assert step.work.total == pytest.approx(sum(r.total for r in step.records))
     assert any(r.kind == "predictor" for r in untracked.steps[1].records) == (method == "natural")
+
+
+def test_a_location_ends_once_its_bracket_is_within_the_tolerance_and_the_critical_load_lies_in_it():
+    # the bracket's width is the located load's error: a location to a far finer tolerance lands
+    # within it, and the coarse one needs no solve once its bracket is that narrow
+    located = {}
+    for tol in (1e-3, 1e-9):
+        prob, load, _ = column(12, control="displacement")
+        result = follow_path(prob, load, method="natural", step=0.3, target=1.1,
+                             stability=StabilityOptions(eigenvalues=2, tol=tol))
+        bifurcation = next(e for e in result.events if e.kind == "bifurcation")
+        assert bifurcation.parameter_error <= tol
+        located[tol] = bifurcation
+    coarse, fine = located[1e-3], located[1e-9]
+    assert abs(coarse.parameter - fine.parameter) <= coarse.parameter_error + fine.parameter_error
+
+
+def test_a_switch_corrector_whose_residual_grows_past_its_bound_fails_at_once_and_bad_bounds_are_named():
+    from ngsgel import continuation, ramp
+    from ngsgel.newton import NewtonError
+
+    prob, load, _ = arch()
+    ramp(prob, load, 0.02, step=0.01)
+    free = prob.free_mask
+    start = prob.save_state()
+    corrector = continuation.BorderedCorrector(prob, load)
+    mode = np.zeros(int(free.sum()))
+    mode[0] = 1.0
+    # far along one dof: the corrector's first iterate has a larger residual than the guess
+    guess = start.copy()
+    guess[free] += 0.05 * mode
+    with pytest.raises(NewtonError, match="grew") as grown:
+        corrector.solve((guess, 0.02), (start[free], 0.02), (mode, 0.0), 0.05, max_growth=1.5)
+    assert grown.value.result.iterations == 1
+    assert np.array_equal(prob.save_state(), start) and load.Get() == 0.02
+    try:  # unbounded, the same solve goes on past that iterate
+        unbounded = corrector.solve((guess, 0.02), (start[free], 0.02), (mode, 0.0), 0.05)
+    except NewtonError as error:
+        unbounded = error.result
+    assert unbounded.iterations > 1
+    with pytest.raises(ValueError, match="max_growth"):
+        corrector.solve((guess, 0.02), (start[free], 0.02), (mode, 0.0), 0.05, max_growth=1.0)
