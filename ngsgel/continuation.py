@@ -769,6 +769,7 @@ class _Driver:
                                     f"fewer than the {a.spectrum.negative} and {b.spectrum.negative} at the ends of "
                                     f"the step: more than one eigenvalue changes sign in it")
             new = (s, point.spectrum.crossing(index)[0], point.parameter)
+            spread = max(lo[2], hi[2], new[2]) - min(lo[2], hi[2], new[2])
             # the side of the bracket is the sign of the tracked eigenvalue (number ``index``)
             if (point.spectrum.negative > index) == (a.spectrum.negative > index):
                 lo, hi = new, (hi if kept != "hi" else (hi[0], hi[1] / 2, hi[2]))
@@ -776,10 +777,8 @@ class _Driver:
             else:
                 hi, lo = new, (lo if kept != "lo" else (lo[0], lo[1] / 2, lo[2]))
                 kept = "lo"
-            # the critical load lies in the bracket, of which ``point`` is one end
-            width = abs(hi[2] - lo[2])
-            if width <= self.stability.tol:
-                return point, width
+            if spread <= self.stability.tol:
+                return point, spread
         raise LocationError(f"critical point between parameters {a.parameter:g} and {b.parameter:g} not "
                             f"located to {self.stability.tol:g} in {self.stability.max_locate_iterations} iterations")
 

@@ -462,21 +462,6 @@ def test_every_step_reports_its_work_and_its_stability_check_apart(method):
     assert any(r.kind == "predictor" for r in untracked.steps[1].records) == (method == "natural")
 
 
-def test_a_location_ends_once_its_bracket_is_within_the_tolerance_and_the_critical_load_lies_in_it():
-    # the bracket's width is the located load's error: a location to a far finer tolerance lands
-    # within it, and the coarse one needs no solve once its bracket is that narrow
-    located = {}
-    for tol in (1e-3, 1e-9):
-        prob, load, _ = column(12, control="displacement")
-        result = follow_path(prob, load, method="natural", step=0.3, target=1.1,
-                             stability=StabilityOptions(eigenvalues=2, tol=tol))
-        bifurcation = next(e for e in result.events if e.kind == "bifurcation")
-        assert bifurcation.parameter_error <= tol
-        located[tol] = bifurcation
-    coarse, fine = located[1e-3], located[1e-9]
-    assert abs(coarse.parameter - fine.parameter) <= coarse.parameter_error + fine.parameter_error
-
-
 def test_a_switch_corrector_whose_residual_grows_past_its_bound_fails_at_once_and_bad_bounds_are_named():
     from ngsgel import continuation, ramp
     from ngsgel.newton import NewtonError
