@@ -782,14 +782,15 @@ class _Driver:
         raise LocationError(f"critical point between parameters {a.parameter:g} and {b.parameter:g} not "
                             f"located to {self.stability.tol:g} in {self.stability.max_locate_iterations} iterations")
 
-    def branch_switch(self, a: _Converged, critical: _Converged, converge: Callable[[np.ndarray, float, np.ndarray, float], NewtonResult]) -> _Converged:
+    def branch_switch(self, a: _Converged, critical: _Converged, converge: Callable[..., NewtonResult]) -> _Converged:
         """Leave ``critical`` along ``+-`` its mode; keep the candidate with fewer negative
         eigenvalues, then the lower energy relative to the original branch at its load (that
         branch re-converged from the stable side ``a``).
 
         Where the bordered corrector (the state at the mode amplitude ``amplitude * length``)
-        fails (also once its residual grows ``SWITCH_MAX_GROWTH``-fold), the same guess is solved at a fixed load past the critical one (by the larger of
-        ``10 tol`` and half the way from ``a`` to the critical point): a
+        fails (also once its residual grows ``SWITCH_MAX_GROWTH``-fold), the same guess is solved
+        at a fixed load past the critical one (by the larger of ``10 tol`` and half the way from
+        ``a`` to the critical point): a
         bifurcated branch whose amplitude grows like ``sqrt(load)`` with a small factor puts
         that amplitude far beyond the corrector's reach (the coarse graded disk: ``mu`` 0.28
         past the critical value), while just past it the branch is near. A candidate that fell
@@ -806,7 +807,8 @@ class _Driver:
             guess = critical.state.copy()
             guess[free] += sign * amplitude * phi
             try:
-                newton_result = converge(guess, critical.parameter, phi / (phi @ phi), sign * amplitude)
+                newton_result = converge(guess, critical.parameter, phi / (phi @ phi), sign * amplitude,
+                                         max_growth=SWITCH_MAX_GROWTH)
                 methods.append("bordered")
             except NewtonError as err:
                 self.problem.restore_state(guess)
@@ -1050,8 +1052,8 @@ def _natural(driver: _Driver, current: _Converged, *, step, target, min_step, ma
     def switch(a: _Converged, critical: _Converged) -> _Converged:
         corrector = _corrector(problem, parameter, newton_options)
         free = problem.free_mask
-        return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
-            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s, max_growth=SWITCH_MAX_GROWTH))
+        return driver.branch_switch(a, critical, lambda guess, lam, cx, s, **options: corrector.solve(
+            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s, **options))
 
     def on_step(lam: float, newton_result: NewtonResult) -> bool:
         driver.steps += 1
@@ -1148,8 +1150,8 @@ def _arclength(driver: _Driver, current: _Converged, previous: _Converged | None
         return result
 
     def switch(a: _Converged, critical: _Converged) -> _Converged:
-        return driver.branch_switch(a, critical, lambda guess, lam, cx, s: corrector.solve(
-            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s, max_growth=SWITCH_MAX_GROWTH))
+        return driver.branch_switch(a, critical, lambda guess, lam, cx, s, **options: corrector.solve(
+            (guess, lam), (critical.state[free], critical.parameter), (cx, 0.0), s, **options))
 
     ds = step
     while True:

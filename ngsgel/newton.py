@@ -51,8 +51,8 @@ class Work:
     "rejected chord" (a chord step tried and dropped), "predictor" (``ramp``'s tangent
     predictor), "total" (a sum, ``total_work``). The times are disjoint: ``residual`` and
     ``admissibility`` are those of the point kept, ``line_search`` everything spent on trial
-    points the line search rejected; ``total`` is the record's wall time (the parts plus
-    bookkeeping). ``solve`` includes the product with the tangent that carries prescribed motion.
+    points the line search rejected (an energy evaluation, ``merit="energy"``, counts with the
+    residual of its point); ``total`` is the record's wall time (the parts plus bookkeeping). ``solve`` includes the product with the tangent that carries prescribed motion.
     ``residual_norm``: the free residual at the point kept (NaN for a rejected chord step)."""
 
     kind: str
