@@ -544,12 +544,13 @@ class GelShell(BuiltOnDemand):
         area_geometry = ngs.CF((N, weingarten, ngs.CF(self.material.Nv), self.mu))
         area = kernel_module.ShellArea(grad=grad_u, hesse=hesse, lams=list(trial[2:]), geometry=area_geometry,
                                   thickness=self.thickness, lam0=self.lam0, chi=self.material.chi,
-                                  zetas=[zeta for zeta, _ in self._layers], weights=[w for _, w in self._layers])
+                                  zetas=[zeta for zeta, _ in self._layers], weights=[w for _, w in self._layers],
+                                  elements=self.mesh.GetNE(ngs.BND))
         G, nu = self._reference_moduli()
         edge_geometry = ngs.CF((N, weingarten, ngs.specialcf.tangential(3), self._avg_normal, self._avg_normal_ref,
                                 self._edge_stiffness(), ngs.CF(2 * G), ngs.CF(nu / (1 - nu))))
         edge = kernel_module.ShellEdge(grad=grad_u, hesse=hesse, omega=trial[1].Trace(), geometry=edge_geometry,
-                                  thickness=self.thickness)
+                                  thickness=self.thickness, elements=self.mesh.GetNE(ngs.BND))
         return [area, edge]
 
     @property
