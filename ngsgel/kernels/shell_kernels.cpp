@@ -284,6 +284,76 @@ struct EdgeModel {
   void AddMetricHessian(const double *, double (*)[NR]) const {}  // f enters phi linearly in y
 };
 
+// ------------------------------------------------------------------------ second-order jets
+// A value with its gradient and the upper triangle of its Hessian in D variables: ngcore's
+// AutoDiffDiff keeps the full D x D Hessian, so each product costs nearly twice the work; the
+// point Hessians of the two energies (D = 8, 10) were a third of the tangent's assembly.
+template <int D>
+struct Jet2 {
+  static constexpr int NH = D * (D + 1) / 2;
+  double v = 0, g[D] = {}, h[NH] = {};  // h: rows of the upper triangle, (0,0), (0,1), ..., (1,1), ...
+
+  Jet2() = default;
+  Jet2(double value) : v(value) {}
+  Jet2(double value, int variable) : v(value) { g[variable] = 1; }
+
+  double Value() const { return v; }
+  double DValue(int i) const { return g[i]; }
+
+  // f(x) from f, f', f'' at x's value
+  Jet2 Chain(double f, double df, double ddf) const {
+    Jet2 r(f);
+    for (int i = 0; i < D; i++) r.g[i] = df * g[i];
+    for (int i = 0, k = 0; i < D; i++)
+      for (int j = i; j < D; j++, k++) r.h[k] = df * h[k] + ddf * g[i] * g[j];
+    return r;
+  }
+};
+
+template <int D> Jet2<D> operator+ (const Jet2<D> & x, const Jet2<D> & y) {
+  Jet2<D> r(x.v + y.v);
+  for (int i = 0; i < D; i++) r.g[i] = x.g[i] + y.g[i];
+  for (int k = 0; k < Jet2<D>::NH; k++) r.h[k] = x.h[k] + y.h[k];
+  return r;
+}
+template <int D> Jet2<D> operator* (double a, const Jet2<D> & x) {
+  Jet2<D> r(a * x.v);
+  for (int i = 0; i < D; i++) r.g[i] = a * x.g[i];
+  for (int k = 0; k < Jet2<D>::NH; k++) r.h[k] = a * x.h[k];
+  return r;
+}
+template <int D> Jet2<D> operator* (const Jet2<D> & x, double a) { return a * x; }
+template <int D> Jet2<D> operator- (const Jet2<D> & x) { return -1.0 * x; }
+template <int D> Jet2<D> operator- (const Jet2<D> & x, const Jet2<D> & y) { return x + (-y); }
+template <int D> Jet2<D> operator+ (const Jet2<D> & x, double a) { Jet2<D> r = x; r.v += a; return r; }
+template <int D> Jet2<D> operator+ (double a, const Jet2<D> & x) { return x + a; }
+template <int D> Jet2<D> operator- (const Jet2<D> & x, double a) { return x + (-a); }
+template <int D> Jet2<D> operator- (double a, const Jet2<D> & x) { return (-x) + a; }
+template <int D> Jet2<D> operator* (const Jet2<D> & x, const Jet2<D> & y) {
+  Jet2<D> r(x.v * y.v);
+  for (int i = 0; i < D; i++) r.g[i] = x.v * y.g[i] + y.v * x.g[i];
+  for (int i = 0, k = 0; i < D; i++)
+    for (int j = i; j < D; j++, k++)
+      r.h[k] = x.v * y.h[k] + y.v * x.h[k] + x.g[i] * y.g[j] + x.g[j] * y.g[i];
+  return r;
+}
+template <int D> Jet2<D> Inverse(const Jet2<D> & x) {
+  double i = 1 / x.v;
+  return x.Chain(i, -i * i, 2 * i * i * i);
+}
+template <int D> Jet2<D> operator/ (const Jet2<D> & x, const Jet2<D> & y) { return x * Inverse(y); }
+template <int D> Jet2<D> operator/ (double a, const Jet2<D> & x) { return a * Inverse(x); }
+template <int D> Jet2<D> operator/ (const Jet2<D> & x, double a) { return (1 / a) * x; }
+template <int D> Jet2<D> sqrt(const Jet2<D> & x) {
+  double s = std::sqrt(x.v);
+  return x.Chain(s, 0.5 / s, -0.25 / (s * x.v));
+}
+template <int D> Jet2<D> log(const Jet2<D> & x) { return x.Chain(std::log(x.v), 1 / x.v, -1 / (x.v * x.v)); }
+template <int D> Jet2<D> acos(const Jet2<D> & x) {
+  double w = 1 - x.v * x.v, s = std::sqrt(w);
+  return x.Chain(std::acos(x.v), -1 / s, -x.v / (w * s));
+}
+
 // ----------------------------------------------------------------------------- point derivatives
 // phi(y(r)) and its derivatives in r at one point, through the reduced variables y
 template <class Model>
@@ -313,15 +383,18 @@ struct PointEnergy {
     AutoDiffDiff<6> n[3];
     double y[NY], J[NY][NR];
     model.Reduce(r, p, n, y, J);
-    AutoDiffDiff<NY> yd[NY];
-    for (int k = 0; k < NY; k++) yd[k] = AutoDiffDiff<NY>(y[k], k);
-    AutoDiffDiff<NY> phi = model.Phi(yd, p);
+    Jet2<NY> yd[NY];
+    for (int k = 0; k < NY; k++) yd[k] = Jet2<NY>(y[k], k);
+    Jet2<NY> phi = model.Phi(yd, p);
     ChainGradient(phi, J, g);
+    double P[NY][NY];
+    for (int k = 0, i = 0; k < NY; k++)
+      for (int l = k; l < NY; l++, i++) P[k][l] = P[l][k] = phi.h[i];
     double PJ[NY][NR];  // phi'' J, then H = J^T phi'' J
     for (int k = 0; k < NY; k++)
       for (int j = 0; j < NR; j++) {
         double s = 0;
-        for (int l = 0; l < NY; l++) s += phi.DDValue(k, l) * J[l][j];
+        for (int l = 0; l < NY; l++) s += P[k][l] * J[l][j];
         PJ[k][j] = s;
       }
     for (int i = 0; i < NR; i++)
@@ -406,10 +479,14 @@ public:
     }
   }
 
-  // B at every point of an element (NR rows per point, the element's rules in order), built at the
-  // element's first evaluation: building it from the proxies' CalcMatrix (the surface Hessian of
-  // curved elements above all) took half of each energy and residual.
-  struct ElementShapes { std::vector<double> B; int nd = -1; };
+  // B at every point of an element, built at the element's first evaluation: building it from the
+  // proxies' CalcMatrix (the surface Hessian of curved elements above all) took half of each energy
+  // and residual. Kept in two blocks, each on the element dofs it reaches: the NU rows of u's
+  // gradient and Hessian (u's dofs) and the NE rows of the extra unknowns (the thickness stretches'
+  // or the hybrid rotation's dofs), NU (NE) rows per point, the element's rules in order; every
+  // product with B then skips the zeros between the blocks.
+  static constexpr int NU = 15, NE = NR - 15;
+  struct ElementShapes { std::vector<double> Bu, Be; std::vector<int> u_columns, e_columns; int nd = -1; };
   mutable std::vector<ElementShapes> shapes;
 
   void CalcShapes(const FiniteElement & fel, const BaseMappedIntegrationRule & mir, FlatMatrix<double> B,
@@ -455,7 +532,43 @@ public:
     }
   }
 
-  // each_rule(mir, B) for every rule of the element, B (NR np x nd) the kept rows of its points
+  void FillShapes(const FiniteElement & fel, const ElementTransformation & trafo, LocalHeap & lh,
+                  ElementShapes & cache) const {
+    int nd = fel.GetNDof();
+    std::vector<double> full;
+    ForEachRule(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir) {
+      size_t offset = full.size(), rows = NR * mir.Size();
+      full.resize(offset + rows * nd);
+      CalcShapes(fel, mir, FlatMatrix<double>(rows, nd, full.data() + offset), lh);
+    });
+    size_t points = full.size() / (NR * nd);
+    FlatMatrix<double> all(NR * points, nd, full.data());
+    auto keep = [&](int first, int count, std::vector<int> & columns, std::vector<double> & B) {
+      columns.clear();
+      for (int d = 0; d < nd; d++) {
+        bool reached = false;
+        for (size_t p = 0; p < points && !reached; p++)
+          for (int k = first; k < first + count && !reached; k++) reached = all(NR * p + k, d) != 0.0;
+        if (reached) columns.push_back(d);
+      }
+      size_t nc = columns.size();
+      B.resize(points * count * nc);
+      for (size_t p = 0; p < points; p++)
+        for (int k = 0; k < count; k++)
+          for (size_t c = 0; c < nc; c++) B[(p * count + k) * nc + c] = all(NR * p + first + k, columns[c]);
+    };
+    keep(0, NU, cache.u_columns, cache.Bu);
+    keep(NU, NE, cache.e_columns, cache.Be);
+    cache.nd = nd;
+  }
+
+  // the two blocks of B at the points of one rule (NU np x u columns, NE np x extra columns)
+  struct RuleShapes {
+    FlatMatrix<double> Bu, Be;
+    FlatArray<int> u_columns, e_columns;
+  };
+
+  // each_rule(mir, shapes) for every rule of the element
   template <typename F>
   void ForEachRuleShapes(const FiniteElement & fel, const ElementTransformation & trafo, LocalHeap & lh,
                          F && each_rule) const {
@@ -464,37 +577,43 @@ public:
       throw Exception("shell kernel: element " + ToString(element) + " beyond the " + ToString(shapes.size())
                       + " elements it was built for");
     ElementShapes & cache = shapes[element];  // one thread per element in an assembly
-    int nd = fel.GetNDof();
-    bool fill = cache.nd != nd;
-    if (fill) cache.B.clear();
-    size_t offset = 0;  // entries of the element's earlier rules
+    if (cache.nd != fel.GetNDof()) FillShapes(fel, trafo, lh, cache);
+    FlatArray<int> u_columns(cache.u_columns.size(), cache.u_columns.data());
+    FlatArray<int> e_columns(cache.e_columns.size(), cache.e_columns.data());
+    size_t point = 0;  // points of the element's earlier rules
     ForEachRule(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir) {
-      size_t rows = NR * mir.Size();
-      if (fill) {
-        cache.B.resize(offset + rows * nd);
-        CalcShapes(fel, mir, FlatMatrix<double>(rows, nd, cache.B.data() + offset), lh);
-      }
-      each_rule(mir, FlatMatrix<double>(rows, nd, cache.B.data() + offset));
-      offset += rows * nd;
+      size_t np = mir.Size();
+      each_rule(mir, RuleShapes{
+          FlatMatrix<double>(NU * np, u_columns.Size(), cache.Bu.data() + NU * point * u_columns.Size()),
+          FlatMatrix<double>(NE * np, e_columns.Size(), cache.Be.data() + NE * point * e_columns.Size()),
+          u_columns, e_columns});
+      point += np;
     });
-    if (fill) cache.nd = nd;
   }
 
-  // each_point(ip, weight, point data, r, B) at every point of mir, B its rows of the rule's B
+  // each_point(ip, weight, point data, r, Bu, Be) at every point of mir, Bu and Be its rows of the
+  // rule's blocks; xu and xe the element vector on the blocks' columns
   template <typename F>
-  void ForEachPoint(const BaseMappedIntegrationRule & mir, FlatMatrix<double> B_rule, FlatVector<double> elx,
-                    LocalHeap & lh, F && each_point) const {
+  void ForEachPoint(const BaseMappedIntegrationRule & mir, const RuleShapes & B, FlatVector<double> xu,
+                    FlatVector<double> xe, LocalHeap & lh, F && each_point) const {
     int np = mir.Size();
     FlatMatrix<double> geometry_values(np, Model::NGEOMETRY, lh);
     geometry->Evaluate(mir, geometry_values);
     for (int ip = 0; ip < np; ip++) {
       typename Model::Point p;
       model.MakePoint(&geometry_values(ip, 0), p);
-      FlatMatrix<double> B = B_rule.Rows(NR * ip, NR * (ip + 1));
+      FlatMatrix<double> Bu = B.Bu.Rows(NU * ip, NU * (ip + 1)), Be = B.Be.Rows(NE * ip, NE * (ip + 1));
       double r[NR];
-      for (int k = 0; k < NR; k++) r[k] = InnerProduct(B.Row(k), elx);
-      each_point(ip, mir[ip].GetWeight(), p, r, B);
+      for (int k = 0; k < NU; k++) r[k] = InnerProduct(Bu.Row(k), xu);
+      for (int k = 0; k < NE; k++) r[NU + k] = InnerProduct(Be.Row(k), xe);
+      each_point(ip, mir[ip].GetWeight(), p, r, Bu, Be);
     }
+  }
+
+  static FlatVector<double> Gather(FlatVector<double> elx, FlatArray<int> columns, LocalHeap & lh) {
+    FlatVector<double> x(columns.Size(), lh);
+    for (size_t c = 0; c < columns.Size(); c++) x(c) = elx(columns[c]);
+    return x;
   }
 
   void CalcLinearizedElementMatrix(const FiniteElement & fel, const ElementTransformation & trafo,
@@ -502,18 +621,36 @@ public:
                                    LocalHeap & lh) const override {
     HeapReset hr(lh);
     elmat = 0.0;
-    int nd = fel.GetNDof();
     PointEnergy<Model> energy{model};
-    ForEachRuleShapes(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir, FlatMatrix<double> B_all) {
-      FlatMatrix<double> DB_all(NR * mir.Size(), nd, lh);
-      ForEachPoint(mir, B_all, elx, lh, [&](int ip, double weight, const typename Model::Point & p, const double * r,
-                                            FlatMatrix<double> B) {
+    ForEachRuleShapes(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir, const RuleShapes & B) {
+      int np = mir.Size(), cu = B.u_columns.Size(), ce = B.e_columns.Size();
+      FlatMatrix<double> DuuBu(NU * np, cu, lh), DueBe(NU * np, ce, lh), DeeBe(NE * np, ce, lh);
+      ForEachPoint(mir, B, Gather(elx, B.u_columns, lh), Gather(elx, B.e_columns, lh), lh,
+                   [&](int ip, double weight, const typename Model::Point & p, const double * r,
+                       FlatMatrix<double> Bu, FlatMatrix<double> Be) {
         double g[NR], H[NR][NR];
         energy.Hessian(r, p, g, H);
         FlatMatrix<double> D(NR, NR, &H[0][0]);
-        DB_all.Rows(NR * ip, NR * (ip + 1)) = weight * D * B;
+        D *= weight;
+        // plain products: NGSolve's fast kernels
+        DuuBu.Rows(NU * ip, NU * (ip + 1)) = D.Rows(0, NU).Cols(0, NU) * Bu;
+        DueBe.Rows(NU * ip, NU * (ip + 1)) = D.Rows(0, NU).Cols(NU, NR) * Be;
+        DeeBe.Rows(NE * ip, NE * (ip + 1)) = D.Rows(NU, NR).Cols(NU, NR) * Be;
       });
-      elmat += Trans(B_all) * DB_all;  // one matrix product per rule instead of one per point
+      // one matrix product per block and rule instead of one per point
+      FlatMatrix<double> Kuu(cu, cu, lh), Kue(cu, ce, lh), Kee(ce, ce, lh);
+      Kuu = Trans(B.Bu) * DuuBu;
+      Kue = Trans(B.Bu) * DueBe;
+      Kee = Trans(B.Be) * DeeBe;
+      for (int i = 0; i < cu; i++) {
+        for (int j = 0; j < cu; j++) elmat(B.u_columns[i], B.u_columns[j]) += Kuu(i, j);
+        for (int j = 0; j < ce; j++) {
+          elmat(B.u_columns[i], B.e_columns[j]) += Kue(i, j);
+          elmat(B.e_columns[j], B.u_columns[i]) += Kue(i, j);
+        }
+      }
+      for (int i = 0; i < ce; i++)
+        for (int j = 0; j < ce; j++) elmat(B.e_columns[i], B.e_columns[j]) += Kee(i, j);
     });
   }
 
@@ -523,13 +660,20 @@ public:
     HeapReset hr(lh);
     ely = 0.0;
     PointEnergy<Model> energy{model};
-    ForEachRuleShapes(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir, FlatMatrix<double> B_all) {
-      ForEachPoint(mir, B_all, elx, lh, [&](int, double weight, const typename Model::Point & p, const double * r,
-                                            FlatMatrix<double> B) {
+    ForEachRuleShapes(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir, const RuleShapes & B) {
+      FlatVector<double> yu(B.u_columns.Size(), lh), ye(B.e_columns.Size(), lh);
+      yu = 0.0;
+      ye = 0.0;
+      ForEachPoint(mir, B, Gather(elx, B.u_columns, lh), Gather(elx, B.e_columns, lh), lh,
+                   [&](int, double weight, const typename Model::Point & p, const double * r,
+                       FlatMatrix<double> Bu, FlatMatrix<double> Be) {
         double g[NR];
         energy.Gradient(r, p, g);
-        ely += weight * Trans(B) * FlatVector<double>(NR, g);
+        yu += weight * Trans(Bu) * FlatVector<double>(NU, g);
+        ye += weight * Trans(Be) * FlatVector<double>(NE, g + NU);
       });
+      for (size_t c = 0; c < B.u_columns.Size(); c++) ely(B.u_columns[c]) += yu(c);
+      for (size_t c = 0; c < B.e_columns.Size(); c++) ely(B.e_columns[c]) += ye(c);
     });
   }
 
@@ -538,9 +682,10 @@ public:
     HeapReset hr(lh);
     double sum = 0;
     PointEnergy<Model> energy{model};
-    ForEachRuleShapes(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir, FlatMatrix<double> B_all) {
-      ForEachPoint(mir, B_all, elx, lh, [&](int, double weight, const typename Model::Point & p, const double * r,
-                                            FlatMatrix<double>) { sum += weight * energy.Value(r, p); });
+    ForEachRuleShapes(fel, trafo, lh, [&](const BaseMappedIntegrationRule & mir, const RuleShapes & B) {
+      ForEachPoint(mir, B, Gather(elx, B.u_columns, lh), Gather(elx, B.e_columns, lh), lh,
+                   [&](int, double weight, const typename Model::Point & p, const double * r, FlatMatrix<double>,
+                       FlatMatrix<double>) { sum += weight * energy.Value(r, p); });
     });
     return sum;
   }
