@@ -13,9 +13,9 @@
 // (Grad(u).Trace(), u.Operator("hesseboundary"), the thickness stretches or the hybrid rotation's
 // trace), so curved elements are handled exactly as by the symbolic forms: the element matrix is
 // sum_points w B^T (d2psi/dr2) B with B = dr/d(element dofs). B depends on the reference geometry
-// only and is kept per element after its first evaluation (memory: NR x element dofs per point,
-// about 5 kB per unknown at order 3; measured on the 50k-unknown half cap: energy 0.118 -> 0.053 s,
-// residual 0.132 -> 0.069 s, tangent 0.331 -> 0.252 s, 270 MB).
+// only and is kept per element after its first evaluation, in two blocks on the dofs each reaches
+// (memory: about 3 kB per unknown at order 3, 150 MB on the 50k-unknown half cap, where it took
+// the energy from 0.118 to 0.053 s and the residual from 0.132 to 0.069 s on two threads).
 //
 // Local unknowns, in an orthonormal tangent frame (T1, T2, N) at the point, f_a = Fm T_a:
 //   r[0..5]   f_a - T_a = grad_u T_a,
@@ -24,8 +24,8 @@
 // The deformed curvature S_s = (n.N) W_s - n . h_s (n = f_1 x f_2 / |f_1 x f_2|, W the reference
 // Weingarten map in the frame) carries all dependence on h, so each energy is a function phi of
 // fewer reduced variables y(r). Its Hessian is J^T phi'' J + sum_k phi'_k y_k'' (J = dy/dr): phi''
-// by AutoDiffDiff in y (8 or 10 variables instead of 17 or 16), y'' written out (S'' through n(f),
-// by AutoDiffDiff<6>).
+// by second-order jets in y (Jet2: 8 or 10 variables instead of 17 or 16), y'' written out (S''
+// through n(f), by AutoDiffDiff<6>).
 //
 // Area: per layer q, (Fm + zeta lever Fm C^+ S) A^-1 = f M_q with
 // M_q = (I + zeta lever a^-1 S)(I + zeta W)^-1 and a = f^T f, so |F_q|^2 = tr(M^T a M) + lam_q^2 and
