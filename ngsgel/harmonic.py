@@ -207,7 +207,8 @@ class HarmonicStability:
             "ij,ij->j", full.modes, M @ full.modes)
         drop = np.argsort(share)[-n:]
         keep = np.setdiff1d(np.arange(len(full.eigenvalues)), drop)
-        return Spectrum(eigenvalues=full.eigenvalues[keep], modes=full.modes[:, keep], negative=full.negative)
+        return Spectrum(eigenvalues=full.eigenvalues[keep], modes=full.modes[:, keep], negative=full.negative,
+                        zero_band=full.zero_band)
 
     def rigid_modes(self, k: int) -> np.ndarray:
         """Free-dof vectors of the rigid motions of the current configuration that wave number

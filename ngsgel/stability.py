@@ -92,16 +92,22 @@ def arpack_start(n: int) -> np.ndarray:
 @dataclass
 class Spectrum:
     """Lowest eigenvalues (ascending) of ``K phi = omega M phi`` on the free dofs, their modes
-    (columns, free-dof vectors, ``phi^T M phi = volume``) and the exact negative count of ``K``."""
+    (columns, free-dof vectors, ``phi^T M phi = volume``) and the exact negative count of ``K``.
+    ``zero_band``: eigenvalues in ``[0, zero_band]`` are zero to the eigen solve's round-off, so
+    the inertia may count them negative (a state at a critical point to round-off)."""
 
     eigenvalues: np.ndarray
     modes: np.ndarray
     negative: int
+    zero_band: float = 0.0
 
     def crossing(self, index: int) -> tuple[float, np.ndarray]:
         """Eigenvalue and mode number ``index`` (0 = lowest): the one whose sign change turns
         ``index`` negative eigenvalues into ``index + 1`` or back."""
         missing = self.negative - int(np.count_nonzero(self.eigenvalues < 0))  # lowest ones not in the set
+        # negative ones that the eigen solve returned as round-off zeros are in the set
+        missing -= min(max(missing, 0), int(np.count_nonzero((self.eigenvalues >= 0)
+                                                              & (self.eigenvalues <= self.zero_band))))
         if not 0 <= index - missing < len(self.eigenvalues):
             raise ValueError(f"eigenvalue number {index} is not in this spectrum (eigenvalues {missing} to "
                              f"{missing + len(self.eigenvalues) - 1} of the tangent; compute it with past_negative=True)")
@@ -171,7 +177,7 @@ def spectrum(problem, *, count: int = 4, K: sp.spmatrix | None = None, M: sp.spm
                 raise RuntimeError(f"the eigen solve about the shift {sigma:.3g} found {np.count_nonzero(values < 0)} "
                                    f"of the {wanted} negative eigenvalues the inertia puts above it")
     vectors *= np.sqrt(_volume(problem))
-    return Spectrum(eigenvalues=values, modes=vectors, negative=negative)
+    return Spectrum(eigenvalues=values, modes=vectors, negative=negative, zero_band=-near)
 
 
 def _nearest(K: sp.spmatrix, M: sp.spmatrix, count: int, sigma: float,

@@ -86,3 +86,33 @@ def test_a_zero_eigenvalue_of_a_singular_tangent_is_found_whatever_sign_round_of
     assert found.negative == (1 if zero < 0 else 0)
     assert abs(found.eigenvalues[0]) < 1e-10 * 1e3
     np.testing.assert_allclose(found.eigenvalues[1:], exact[1:3], rtol=1e-8)
+
+
+def test_a_negative_eigenvalue_returned_as_a_round_off_zero_is_the_crossing_one():
+    # at a critical point to round-off the inertia may count the tracked eigenvalue negative while
+    # the eigen solve returns it as a tiny non-negative number (the graded disk p = 10, h = 0.4, in
+    # the driver's location): it is still the crossing eigenvalue, found inside the zero band only
+    modes = np.eye(3)
+    at_critical = stability.Spectrum(eigenvalues=np.array([-0.5, 3e-15, 1.0]), modes=modes, negative=2,
+                                      zero_band=1e-10)
+    assert at_critical.crossing(0)[0] == -0.5
+    value, mode = at_critical.crossing(1)
+    assert value == 3e-15 and np.array_equal(mode, modes[:, 1])
+    assert at_critical.crossing(2)[0] == 1.0
+    for spectrum_without_it in (stability.Spectrum(eigenvalues=np.array([-0.5, 3e-15, 1.0]), modes=modes, negative=2),
+                                stability.Spectrum(eigenvalues=np.array([-0.5, 1e-6, 1.0]), modes=modes, negative=2,
+                                                   zero_band=1e-10)):
+        # read as the set above a missing lowest one, as before the band
+        with pytest.raises(ValueError, match="eigenvalue number 0 is not in this spectrum"):
+            spectrum_without_it.crossing(0)
+
+
+@pytest.mark.parametrize("zero", [-1e-14, 1e-14])
+def test_the_spectrum_holds_the_crossing_eigenvalue_at_a_critical_point_to_round_off(zero):
+    exact = np.concatenate([[-0.5, zero], np.linspace(1e-3, 1e-2, 60), np.linspace(1.0, 1e3, 60)])
+    K, M = _pencil(exact, seed=5)
+    found = spectrum(_Matrices(len(exact)), count=1, K=K, M=M, past_negative=True)
+    assert found.zero_band == pytest.approx(1e-10 * np.max(np.abs(K.diagonal() / M.diagonal())))
+    for index in range(found.negative + 1):  # each eigenvalue whose sign change the count can see
+        value, _ = found.crossing(index)
+        assert value == pytest.approx(exact[index], abs=1e-10 * 1e3)
